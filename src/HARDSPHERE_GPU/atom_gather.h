@@ -1,0 +1,45 @@
+/* -*- c++ -*- ------------------------------------------------------------------
+   HARDSPHERE_GPU: every rank's copy of all positions and masses, in atom-ID order.
+
+   The all-pairs styles let each rank compute the interactions of its own atoms with every
+   atom of the system.  AtomGather collects the positions (mapped into the periodic cell)
+   and masses of all atoms on all ranks, ordered by atom ID, so that the order of the sums
+   and hence the results do not depend on how the domain is decomposed.
+------------------------------------------------------------------------------------- */
+#ifndef LMP_HSGPU_ATOM_GATHER_H
+#define LMP_HSGPU_ATOM_GATHER_H
+
+#include "pointers.h"
+
+#include "core/gravity_pair.h"
+
+#include <vector>
+
+namespace LAMMPS_NS {
+
+class AtomGather : protected Pointers {
+ public:
+  AtomGather(class LAMMPS *, const char *style);
+
+  // Collective: gather owned atoms of all ranks.  Stops with an error naming the atom if
+  // a mass is not positive.
+  void gather();
+
+  long ntotal;                 // atoms in the system
+  std::vector<double> x;       // 3*ntotal positions in atom-ID order, wrapped
+  std::vector<double> mass;    // ntotal masses
+  std::vector<long> index;     // index[i] for owned atom i: its place in x and mass
+  HSGPU::Gravity::Box box;     // orthogonal box with its periodic flags
+  bool changed_masses;         // true when masses differ from the previous gather
+
+ private:
+  const char *style;
+  std::vector<double> sendbuf, recvbuf;
+  std::vector<int> counts, displs;
+  std::vector<long> order;
+  std::vector<double> tags_sorted;
+};
+
+}    // namespace LAMMPS_NS
+
+#endif

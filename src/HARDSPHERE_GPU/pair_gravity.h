@@ -1,0 +1,58 @@
+/* -*- c++ -*- ------------------------------------------------------------------
+   HARDSPHERE_GPU: pair_style gravity, all-pairs softened Newtonian gravity.
+
+     pair_style gravity G eps [cutoff rc]
+     pair_coeff * *
+
+   Every pair of atoms interacts once, through the nearest periodic image.  Each rank gathers
+   all positions and masses (AtomGather) and computes the forces on its own atoms.
+------------------------------------------------------------------------------------- */
+#ifndef LMP_HSGPU_PAIR_GRAVITY_H
+#define LMP_HSGPU_PAIR_GRAVITY_H
+
+#include "pair.h"
+
+#include <vector>
+
+namespace LAMMPS_NS {
+
+class AtomGather;
+
+class PairGravity : public Pair {
+ public:
+  PairGravity(class LAMMPS *);
+  ~PairGravity() override;
+
+  void compute(int, int) override;
+  void settings(int, char **) override;
+  void coeff(int, char **) override;
+  void init_style() override;
+  double init_one(int, int) override;
+  void write_restart(FILE *) override;
+  void read_restart(FILE *) override;
+  void write_restart_settings(FILE *) override;
+  void read_restart_settings(FILE *) override;
+
+  double gconst() const { return gravity_g; }
+  double softening() const { return softening_eps; }
+
+ protected:
+  double gravity_g;        // gravitational constant in the input's units
+  double softening_eps;    // Plummer softening length (0 = none)
+  double cutoff;           // interaction cutoff (0 = none)
+  AtomGather *gather;
+
+  struct TargetSums {
+    double e;
+    double v[6];
+  };
+  std::vector<TargetSums> sums;
+
+  void allocate();
+  void compute_cpu(int nlocal);
+  void tally(int nlocal);
+};
+
+}    // namespace LAMMPS_NS
+
+#endif

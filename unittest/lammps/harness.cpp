@@ -1,0 +1,106 @@
+#include "harness.h"
+
+#define LAMMPS_LIB_MPI
+#include "library.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <stdexcept>
+#include <cstring>
+
+namespace hsgpu_test {
+
+const char *plugin_path()
+{
+  return HSGPU_PLUGIN_PATH;
+}
+
+Lammps::Lammps(MPI_Comm comm, bool load_plugin) : lmp(nullptr)
+{
+  const bool verbose = std::getenv("HSGPU_TEST_VERBOSE") != nullptr;
+  std::vector<std::string> args = {"hsgpu_test", "-nocite", "-log", "none"};
+  if (!verbose) {
+    args.insert(args.end(), {"-screen", "none", "-echo", "none"});
+  } else {
+    args.insert(args.end(), {"-echo", "screen"});
+  }
+  std::vector<char *> argv;
+  for (auto &a : args) argv.push_back(const_cast<char *>(a.c_str()));
+  argv.push_back(nullptr);
+  lmp = lammps_open((int) args.size(), argv.data(), comm, nullptr);
+  if (!lmp) throw std::runtime_error("lammps_open failed");
+  if (load_plugin) {
+    const std::string err = command(std::string("plugin load ") + plugin_path());
+    if (!err.empty()) throw std::runtime_error("plugin load failed: " + err);
+  }
+}
+
+Lammps::~Lammps()
+{
+  if (lmp) lammps_close(lmp);
+}
+
+std::string Lammps::command(const std::string &line)
+{
+  lammps_command(lmp, line.c_str());
+  if (lammps_has_error(lmp)) {
+    char buf[2048];
+    lammps_get_last_error_message(lmp, buf, sizeof(buf));
+    return std::string(buf);
+  }
+  return "";
+}
+
+void Lammps::commands(const std::vector<std::string> &lines)
+{
+  for (const auto &l : lines) {
+    const std::string err = command(l);
+    ASSERT_EQ(err, "") << "while running: " << l;
+  }
+}
+
+std::string Lammps::first_error(const std::vector<std::string> &lines)
+{
+  for (const auto &l : lines) {
+    const std::string err = command(l);
+    if (!err.empty()) return err;
+  }
+  return "";
+}
+
+long Lammps::natoms()
+{
+  return (long) lammps_get_natoms(lmp);
+}
+
+std::vector<double> Lammps::gather(const char *name, int count)
+{
+  std::vector<double> out((size_t) natoms() * count);
+  char buf[64];
+  std::strncpy(buf, name, sizeof(buf) - 1);
+  buf[sizeof(buf) - 1] = '\0';
+  lammps_gather_atoms(lmp, buf, 1, count, out.data());
+  return out;
+}
+
+double Lammps::thermo(const char *keyword)
+{
+  return lammps_get_thermo(lmp, keyword);
+}
+
+double Lammps::compute_scalar(const char *id)
+{
+  auto *v = (double *) lammps_extract_compute(lmp, id, LMP_STYLE_GLOBAL, LMP_TYPE_SCALAR);
+  if (!v) throw std::runtime_error(std::string("no global scalar from compute ") + id);
+  return *v;
+}
+
+double Lammps::compute_vector(const char *id, int i)
+{
+  auto *v = (double *) lammps_extract_compute(lmp, id, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR);
+  if (!v) throw std::runtime_error(std::string("no global vector from compute ") + id);
+  return v[i];
+}
+
+}    // namespace hsgpu_test

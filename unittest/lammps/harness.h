@@ -1,0 +1,48 @@
+/* HARDSPHERE_GPU test harness: drives a LAMMPS instance through its C library interface
+   (library.h), with the package's plugin loaded. */
+#ifndef HSGPU_TEST_HARNESS_H
+#define HSGPU_TEST_HARNESS_H
+
+#include <mpi.h>
+
+#include <string>
+#include <vector>
+
+namespace hsgpu_test {
+
+class Lammps {
+ public:
+  // A LAMMPS instance on `comm` with screen and log output off (set HSGPU_TEST_VERBOSE=1 to
+  // see them); loads the plugin unless load_plugin is false.
+  explicit Lammps(MPI_Comm comm = MPI_COMM_WORLD, bool load_plugin = true);
+  ~Lammps();
+  Lammps(const Lammps &) = delete;
+  Lammps &operator=(const Lammps &) = delete;
+
+  // Runs one input line; on a LAMMPS error returns the error message, else "".
+  std::string command(const std::string &line);
+  // Runs input lines, failing the current test on the first error.
+  void commands(const std::vector<std::string> &lines);
+  // Runs lines up to the first error and returns its message ("" when all succeeded).
+  std::string first_error(const std::vector<std::string> &lines);
+
+  long natoms();
+  // Per-atom double vector ("x", "v", "f", ...) of count entries per atom, in atom-ID order,
+  // on every rank.
+  std::vector<double> gather(const char *name, int count);
+  double thermo(const char *keyword);
+  // Global scalar of compute `id`, or element i (0-based) of its global vector.
+  double compute_scalar(const char *id);
+  double compute_vector(const char *id, int i);
+  void *handle() { return lmp; }
+
+ private:
+  void *lmp;
+};
+
+// Path of the plugin under test (set by CMake).
+const char *plugin_path();
+
+}    // namespace hsgpu_test
+
+#endif
