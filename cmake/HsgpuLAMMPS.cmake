@@ -17,6 +17,13 @@ set(HSGPU_LAMMPS "2025" CACHE STRING "LAMMPS to obtain when none is named: 2025 
 set_property(CACHE HSGPU_LAMMPS PROPERTY STRINGS 2025 2021)
 set(HSGPU_LAMMPS_CACHE "" CACHE PATH "Where obtained LAMMPS builds are cached (default ~/.cache/hardsphere_gpu)")
 
+# A LAMMPS obtained here is re-obtained when HSGPU_LAMMPS changes; one the user named is kept.
+if(HSGPU_OBTAINED_LAMMPS AND NOT HSGPU_OBTAINED_LAMMPS STREQUAL HSGPU_LAMMPS)
+  unset(LAMMPS_SOURCE_DIR CACHE)
+  unset(LAMMPS_ROOT CACHE)
+  unset(LAMMPS_BINARY CACHE)
+  unset(LAMMPS_DIR CACHE)
+endif()
 if(NOT LAMMPS_SOURCE_DIR)
   set(_args ${HSGPU_LAMMPS})
   if(HSGPU_LAMMPS_CACHE)
@@ -33,6 +40,7 @@ if(NOT LAMMPS_SOURCE_DIR)
   file(READ "${_prefix}/LAMMPS_SOURCE_DIR" _src)
   string(STRIP "${_src}" _src)
   set(LAMMPS_SOURCE_DIR "${_src}" CACHE PATH "LAMMPS src/ directory (headers)" FORCE)
+  set(HSGPU_OBTAINED_LAMMPS "${HSGPU_LAMMPS}" CACHE INTERNAL "HSGPU_LAMMPS that LAMMPS_ROOT was obtained for")
 endif()
 
 if(NOT EXISTS "${LAMMPS_SOURCE_DIR}/lammps.h")

@@ -41,21 +41,40 @@ void AtomGather::gather()
   box.periodic[1] = domain->yperiodic;
   box.periodic[2] = domain->zperiodic;
 
-  sendbuf.resize((size_t) NPACK * nlocal);
+  // Masses (and IDs' order) rarely change: send them only when some rank's owned set did.
+  int local_changed = (nlocal != (int) last_tag.size()) ? 1 : 0;
+  for (int i = 0; !local_changed && i < nlocal; ++i) {
+    const double mi = rmass ? rmass[i] : pmass[type[i]];
+    local_changed = (tag[i] != last_tag[i] || mi != last_mass[i]) ? 1 : 0;
+  }
+  int any_changed = 0;
+  MPI_Allreduce(&local_changed, &any_changed, 1, MPI_INT, MPI_MAX, world);
+  if (ntotal == 0) any_changed = 1;
+  const int npack = any_changed ? NPACK : NPACK - 1;
+  if (local_changed) {
+    last_tag.resize(nlocal);
+    last_mass.resize(nlocal);
+    for (int i = 0; i < nlocal; ++i) {
+      last_tag[i] = tag[i];
+      last_mass[i] = rmass ? rmass[i] : pmass[type[i]];
+    }
+  }
+
+  sendbuf.resize((size_t) npack * nlocal);
   for (int i = 0; i < nlocal; ++i) {
-    double *b = &sendbuf[(size_t) NPACK * i];
+    double *b = &sendbuf[(size_t) npack * i];
     b[0] = (double) tag[i];
     for (int d = 0; d < 3; ++d) {
       double c = xx[i][d];
       if (box.periodic[d]) c = HSGPU::Gravity::wrap_coordinate(c, box.lo[d], box.prd[d]);
       b[1 + d] = c;
     }
-    b[4] = rmass ? rmass[i] : pmass[type[i]];
+    if (any_changed) b[4] = rmass ? rmass[i] : pmass[type[i]];
   }
 
   counts.resize(nprocs);
   displs.resize(nprocs);
-  int nsend = NPACK * nlocal;
+  int nsend = npack * nlocal;
   MPI_Allgather(&nsend, 1, MPI_INT, counts.data(), 1, MPI_INT, world);
   long total = 0;
   for (int p = 0; p < nprocs; ++p) {
@@ -68,40 +87,41 @@ void AtomGather::gather()
   MPI_Allgatherv(sendbuf.data(), nsend, MPI_DOUBLE, recvbuf.data(), counts.data(), displs.data(),
                  MPI_DOUBLE, world);
 
-  const long n = total / NPACK;
-  const bool resized = (n != ntotal);
+  const long n = total / npack;
   ntotal = n;
   x.resize(3 * n);
-  if (resized) mass.assign(n, 0.0);
+  if (any_changed) mass.resize(n);
 
   // Atom-ID order: direct placement when IDs are exactly 1..n, a sort otherwise.
   double maxtag = 0.0;
-  for (long k = 0; k < n; ++k) maxtag = std::max(maxtag, recvbuf[NPACK * k]);
-  const bool direct = (maxtag == (double) n);
+  for (long k = 0; k < n; ++k) maxtag = std::max(maxtag, recvbuf[npack * k]);
+  direct = (maxtag == (double) n);
   order.resize(n);
   if (direct) {
-    for (long k = 0; k < n; ++k) order[(long) recvbuf[NPACK * k] - 1] = k;
+    for (long k = 0; k < n; ++k) order[(long) recvbuf[npack * k] - 1] = k;
   } else {
     for (long k = 0; k < n; ++k) order[k] = k;
-    std::sort(order.begin(), order.end(),
-              [this](long a, long b) { return recvbuf[NPACK * a] < recvbuf[NPACK * b]; });
+    std::sort(order.begin(), order.end(), [this, npack](long a, long b) {
+      return recvbuf[npack * a] < recvbuf[npack * b];
+    });
     tags_sorted.resize(n);
-    for (long s = 0; s < n; ++s) tags_sorted[s] = recvbuf[NPACK * order[s]];
+    for (long s = 0; s < n; ++s) tags_sorted[s] = recvbuf[npack * order[s]];
   }
 
-  changed_masses = resized;
+  changed_masses = any_changed;
   for (long s = 0; s < n; ++s) {
-    const double *b = &recvbuf[NPACK * order[s]];
+    const double *b = &recvbuf[npack * order[s]];
     x[3 * s] = b[1];
     x[3 * s + 1] = b[2];
     x[3 * s + 2] = b[3];
+    if (!any_changed) continue;
     if (!(b[4] > 0.0))
       error->all(FLERR, "Pair style {} requires positive masses: atom {} has mass {}", style,
                  (tagint) b[0], b[4]);
-    if (mass[s] != b[4]) changed_masses = true;
     mass[s] = b[4];
   }
 
+  if (!any_changed && (long) index.size() == nlocal) return;    // same owned atoms, same places
   index.resize(nlocal);
   for (int i = 0; i < nlocal; ++i) {
     if (direct) {

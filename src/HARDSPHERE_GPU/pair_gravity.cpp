@@ -13,13 +13,16 @@
 #include "utils.h"
 
 #include "core/gravity_pair.h"
+#include "gpu/device_info.cuh"
+#include "gpu/gravity_engine.h"
 
 #include <cstring>
 
 using namespace LAMMPS_NS;
 
 PairGravity::PairGravity(LAMMPS *lmp) :
-    Pair(lmp), gravity_g(0.0), softening_eps(0.0), cutoff(0.0), gather(nullptr)
+    Pair(lmp), gravity_g(0.0), softening_eps(0.0), cutoff(0.0), gather(nullptr), gpu_requested(0),
+    precision((int) HSGPU::GPU::Precision::Mixed), device_request(-1), engine(nullptr)
 {
   single_enable = 0;
   restartinfo = 1;
@@ -33,6 +36,7 @@ PairGravity::PairGravity(LAMMPS *lmp) :
 PairGravity::~PairGravity()
 {
   delete gather;
+  delete engine;
   if (allocated) {
     memory->destroy(setflag);
     memory->destroy(cutsq);
@@ -61,6 +65,9 @@ void PairGravity::settings(int narg, char **arg)
   if (softening_eps < 0.0)
     error->all(FLERR, "Illegal pair_style gravity command: eps must be >= 0");
   cutoff = 0.0;
+  gpu_requested = 0;
+  precision = (int) HSGPU::GPU::Precision::Mixed;
+  device_request = -1;
   int iarg = 2;
   while (iarg < narg) {
     if (strcmp(arg[iarg], "cutoff") == 0) {
@@ -69,6 +76,32 @@ void PairGravity::settings(int narg, char **arg)
       cutoff = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
       if (cutoff <= 0.0)
         error->all(FLERR, "Illegal pair_style gravity command: cutoff must be > 0");
+      iarg += 2;
+    } else if (strcmp(arg[iarg], "gpu") == 0) {
+      if (iarg + 2 > narg) error->all(FLERR, "Illegal pair_style gravity command: gpu needs yes or no");
+      gpu_requested = utils::logical(FLERR, arg[iarg + 1], false, lmp);
+      iarg += 2;
+    } else if (strcmp(arg[iarg], "precision") == 0) {
+      if (iarg + 2 > narg)
+        error->all(FLERR, "Illegal pair_style gravity command: precision needs single, mixed or double");
+      if (strcmp(arg[iarg + 1], "single") == 0)
+        precision = (int) HSGPU::GPU::Precision::Single;
+      else if (strcmp(arg[iarg + 1], "mixed") == 0)
+        precision = (int) HSGPU::GPU::Precision::Mixed;
+      else if (strcmp(arg[iarg + 1], "double") == 0)
+        precision = (int) HSGPU::GPU::Precision::Double;
+      else
+        error->all(FLERR, "Illegal pair_style gravity command: unknown precision {}", arg[iarg + 1]);
+      iarg += 2;
+    } else if (strcmp(arg[iarg], "device") == 0) {
+      if (iarg + 2 > narg)
+        error->all(FLERR, "Illegal pair_style gravity command: device needs auto or a number");
+      if (strcmp(arg[iarg + 1], "auto") == 0)
+        device_request = -1;
+      else
+        device_request = utils::inumeric(FLERR, arg[iarg + 1], false, lmp);
+      if (device_request < -1)
+        error->all(FLERR, "Illegal pair_style gravity command: device must be auto or >= 0");
       iarg += 2;
     } else {
       error->all(FLERR, "Illegal pair_style gravity command: unknown keyword {}", arg[iarg]);
@@ -103,13 +136,63 @@ void PairGravity::init_style()
         error->all(FLERR, "Pair style gravity requires a positive mass for atom type {}", t);
   }
   // No neighbor list: every rank sums over the gathered copy of all atoms.
+  setup_gpu();
+}
+
+/* One CUDA device per rank: the one the user named, or the node-local rank modulo the
+   number of devices.  Without a usable device the CPU path runs, with a message. */
+void PairGravity::setup_gpu()
+{
+  if (!gpu_requested) {
+    delete engine;
+    engine = nullptr;
+    return;
+  }
+  const int ndev = HSGPU::GPU::device_count();
+  int ok = (ndev > 0) ? 1 : 0, all_ok = 0;
+  MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, world);
+  if (!all_ok) {
+    if (comm->me == 0)
+      error->warning(FLERR, "Pair gravity: gpu yes, but {}; using the CPU path",
+                     HSGPU::GPU::compiled_with_cuda() ? "no CUDA device is usable on every rank"
+                                                      : "the plugin was built without CUDA");
+    delete engine;
+    engine = nullptr;
+    return;
+  }
+  int device = device_request;
+  if (device < 0) {
+    MPI_Comm node;
+    MPI_Comm_split_type(world, MPI_COMM_TYPE_SHARED, comm->me, MPI_INFO_NULL, &node);
+    int node_rank = 0;
+    MPI_Comm_rank(node, &node_rank);
+    MPI_Comm_free(&node);
+    device = node_rank % ndev;
+  }
+  if (device >= ndev)
+    error->one(FLERR, "Pair gravity: device {} requested but this node has {} CUDA device(s)",
+               device, ndev);
+  if (!engine || engine->device() != device) {
+    delete engine;
+    engine = nullptr;
+    try {
+      engine = new HSGPU::GPU::GravityEngine(device);
+    } catch (std::exception &e) {
+      error->one(FLERR, "Pair gravity: cannot use CUDA device {}: {}", device, e.what());
+    }
+  }
+  if (comm->me == 0) {
+    static const char *names[] = {"single", "mixed", "double"};
+    utils::logmesg(lmp, "Pair gravity: CUDA path, precision {}, rank 0 on device {} ({})\n",
+                   names[precision], device, HSGPU::GPU::device_description(device));
+  }
 }
 
 double PairGravity::init_one(int, int)
 {
-  // The all-pairs sum needs no ghost atoms: report no interaction range to the neighbor
-  // and communication setup.
-  return 0.0;
+  // The all-pairs sum needs no ghost atoms.  A zero range would make LAMMPS warn at every
+  // reneighboring that no ghosts are made; a negligible one leaves ghosts within the skin.
+  return 1.0e-10;
 }
 
 void PairGravity::compute(int eflag, int vflag)
@@ -117,7 +200,10 @@ void PairGravity::compute(int eflag, int vflag)
   ev_init(eflag, vflag);
   gather->gather();
   const int nlocal = atom->nlocal;
-  compute_cpu(nlocal);
+  if (engine)
+    compute_gpu(nlocal);
+  else
+    compute_cpu(nlocal);
   tally(nlocal);
 }
 
@@ -147,6 +233,43 @@ void PairGravity::compute_cpu(int nlocal)
     f[i][2] += a.f[2];
     sums[i].e = a.e;
     for (int k = 0; k < 6; ++k) sums[i].v[k] = a.v[k];
+  }
+}
+
+void PairGravity::compute_gpu(int nlocal)
+{
+  HSGPU::GPU::GravityArgs a;
+  a.G = gravity_g;
+  a.eps2 = softening_eps * softening_eps;
+  a.cutsq = cutoff * cutoff;
+  for (int d = 0; d < 3; ++d) {
+    a.lo[d] = gather->box.lo[d];
+    a.prd[d] = gather->box.prd[d];
+    a.periodic[d] = gather->box.periodic[d];
+  }
+  a.energy_virial = (eflag_either || vflag_either);
+  gpu_f.resize(3 * (size_t) nlocal);
+  gpu_e.resize(a.energy_virial ? nlocal : 0);
+  gpu_v.resize(a.energy_virial ? 6 * (size_t) nlocal : 0);
+  try {
+    engine->set_sources(gather->ntotal, gather->x.data(), gather->mass.data(),
+                        gather->changed_masses);
+    engine->set_targets(nlocal, gather->index.data());
+    engine->compute((HSGPU::GPU::Precision) precision, a, gpu_f.data(), gpu_e.data(),
+                    gpu_v.data());
+  } catch (std::exception &e) {
+    error->one(FLERR, "Pair gravity on CUDA device {}: {}", engine->device(), e.what());
+  }
+  double **f = atom->f;
+  sums.resize(nlocal);
+  for (int i = 0; i < nlocal; ++i) {
+    f[i][0] += gpu_f[3 * i];
+    f[i][1] += gpu_f[3 * i + 1];
+    f[i][2] += gpu_f[3 * i + 2];
+    if (a.energy_virial) {
+      sums[i].e = gpu_e[i];
+      for (int k = 0; k < 6; ++k) sums[i].v[k] = gpu_v[6 * i + k];
+    }
   }
 }
 
@@ -183,6 +306,8 @@ void PairGravity::write_restart_settings(FILE *fp)
   fwrite(&gravity_g, sizeof(double), 1, fp);
   fwrite(&softening_eps, sizeof(double), 1, fp);
   fwrite(&cutoff, sizeof(double), 1, fp);
+  int flags[3] = {gpu_requested, precision, device_request};
+  fwrite(flags, sizeof(int), 3, fp);
 }
 
 void PairGravity::read_restart_settings(FILE *fp)
@@ -191,8 +316,18 @@ void PairGravity::read_restart_settings(FILE *fp)
     utils::sfread(FLERR, &gravity_g, sizeof(double), 1, fp, nullptr, error);
     utils::sfread(FLERR, &softening_eps, sizeof(double), 1, fp, nullptr, error);
     utils::sfread(FLERR, &cutoff, sizeof(double), 1, fp, nullptr, error);
+    int flags[3];
+    utils::sfread(FLERR, flags, sizeof(int), 3, fp, nullptr, error);
+    gpu_requested = flags[0];
+    precision = flags[1];
+    if (precision < 0 || precision > 2)
+      error->one(FLERR, "Pair gravity: invalid precision {} in restart file", precision);
+    device_request = flags[2];
   }
   MPI_Bcast(&gravity_g, 1, MPI_DOUBLE, 0, world);
   MPI_Bcast(&softening_eps, 1, MPI_DOUBLE, 0, world);
   MPI_Bcast(&cutoff, 1, MPI_DOUBLE, 0, world);
+  MPI_Bcast(&gpu_requested, 1, MPI_INT, 0, world);
+  MPI_Bcast(&precision, 1, MPI_INT, 0, world);
+  MPI_Bcast(&device_request, 1, MPI_INT, 0, world);
 }

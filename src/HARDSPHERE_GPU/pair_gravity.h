@@ -1,11 +1,13 @@
 /* -*- c++ -*- ------------------------------------------------------------------
    HARDSPHERE_GPU: pair_style gravity, all-pairs softened Newtonian gravity.
 
-     pair_style gravity G eps [cutoff rc]
+     pair_style gravity G eps [cutoff rc] [gpu yes|no] [precision single|mixed|double]
+                              [device auto|N]
      pair_coeff * *
 
    Every pair of atoms interacts once, through the nearest periodic image.  Each rank gathers
-   all positions and masses (AtomGather) and computes the forces on its own atoms.
+   all positions and masses (AtomGather) and computes the forces on its own atoms, on the CPU
+   or on one CUDA device per rank (HSGPU::GPU::GravityEngine).
 ------------------------------------------------------------------------------------- */
 #ifndef LMP_HSGPU_PAIR_GRAVITY_H
 #define LMP_HSGPU_PAIR_GRAVITY_H
@@ -13,6 +15,12 @@
 #include "pair.h"
 
 #include <vector>
+
+namespace HSGPU {
+namespace GPU {
+  class GravityEngine;
+}
+}    // namespace HSGPU
 
 namespace LAMMPS_NS {
 
@@ -35,12 +43,18 @@ class PairGravity : public Pair {
 
   double gconst() const { return gravity_g; }
   double softening() const { return softening_eps; }
+  bool on_gpu() const { return engine != nullptr; }
 
  protected:
   double gravity_g;        // gravitational constant in the input's units
   double softening_eps;    // Plummer softening length (0 = none)
   double cutoff;           // interaction cutoff (0 = none)
   AtomGather *gather;
+  int gpu_requested;    // gpu yes
+  int precision;        // HSGPU::GPU::Precision as int
+  int device_request;   // -1: pick from the node-local rank
+  HSGPU::GPU::GravityEngine *engine;    // null: CPU path
+  std::vector<double> gpu_f, gpu_e, gpu_v;
 
   struct TargetSums {
     double e;
@@ -50,6 +64,8 @@ class PairGravity : public Pair {
 
   void allocate();
   void compute_cpu(int nlocal);
+  void compute_gpu(int nlocal);
+  void setup_gpu();
   void tally(int nlocal);
 };
 

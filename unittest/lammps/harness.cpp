@@ -13,7 +13,9 @@ namespace hsgpu_test {
 
 const char *plugin_path()
 {
-  return HSGPU_PLUGIN_PATH;
+  // HSGPU_PLUGIN overrides the build-tree path (e.g. when the tests run on another machine).
+  const char *env = std::getenv("HSGPU_PLUGIN");
+  return (env && *env) ? env : HSGPU_PLUGIN_PATH;
 }
 
 Lammps::Lammps(MPI_Comm comm, bool load_plugin) : lmp(nullptr)

@@ -4,6 +4,7 @@
 
 #include "../common/gravity_reference.h"
 #include "../common/systems.h"
+#include "gpu/device_info.cuh"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -165,6 +166,24 @@ TEST(PairGravity, RestartContinuationEqualsUninterruptedRun)
   std::remove(file.c_str());
 }
 
+// Where no CUDA device is usable, "gpu yes" runs the CPU path (with a warning): same forces.
+TEST(PairGravity, GpuRequestFallsBackToCpuWithoutDevice)
+{
+  if (HSGPU::GPU::device_count() > 0) GTEST_SKIP() << "a CUDA device is present";
+  GravitySystem s;
+  s.n = 50;
+  std::vector<double> f[2];
+  for (int k = 0; k < 2; ++k) {
+    Lammps lmp;
+    if (k == 1) s.pair += " gpu yes precision single";
+    lmp.commands(hsgpu_test::gravity_system_lines(s));
+    lmp.commands({"run 0"});
+    f[k] = lmp.gather("f", 3);
+  }
+  ASSERT_EQ(f[0].size(), f[1].size());
+  for (size_t i = 0; i < f[0].size(); ++i) EXPECT_EQ(f[0][i], f[1][i]);
+}
+
 // Bad input stops with an ERROR that names the problem.
 namespace {
 std::string error_for(const std::vector<std::string> &setup, const std::string &bad)
@@ -199,6 +218,12 @@ TEST(PairGravityErrors, BadValues)
   EXPECT_THAT(error_for(BOX, "pair_style gravity 1 0.1 cutoff"), HasSubstr("cutoff needs a value"));
   EXPECT_THAT(error_for(BOX, "pair_style gravity 1 0.1 softening 3"),
               HasSubstr("unknown keyword softening"));
+  EXPECT_THAT(error_for(BOX, "pair_style gravity 1 0.1 gpu"), HasSubstr("gpu needs yes or no"));
+  EXPECT_THAT(error_for(BOX, "pair_style gravity 1 0.1 gpu maybe"), HasSubstr("maybe"));
+  EXPECT_THAT(error_for(BOX, "pair_style gravity 1 0.1 precision quad"),
+              HasSubstr("unknown precision quad"));
+  EXPECT_THAT(error_for(BOX, "pair_style gravity 1 0.1 device -3"),
+              HasSubstr("device must be auto or >= 0"));
 }
 
 TEST(PairGravityErrors, CoefficientsAreOnlyStarStar)

@@ -1,0 +1,166 @@
+/* HARDSPHERE_GPU: GravityEngine on CUDA, see gravity_engine.h.  Host code only: the kernels
+   are reached through gravity_kernels.cuh. */
+#include "gravity_engine.h"
+
+#include "gravity_kernels.cuh"
+
+#include <cuda_runtime.h>
+
+#include <cstring>
+#include <vector>
+
+namespace HSGPU {
+namespace GPU {
+
+  namespace {
+    void check(cudaError_t err, const char *what)
+    {
+      if (err != cudaSuccess)
+        throw Error(std::string(what) + ": " + cudaGetErrorName(err) + ": " +
+                    cudaGetErrorString(err));
+    }
+
+    // A device buffer that only grows (by 25 % headroom), keeping its address otherwise.
+    struct Buffer {
+      void *ptr = nullptr;
+      size_t bytes = 0;
+      void reserve(size_t need, const char *what)
+      {
+        if (need <= bytes) return;
+        if (ptr) check(cudaFree(ptr), what);
+        ptr = nullptr;
+        bytes = 0;
+        const size_t want = need + need / 4;
+        check(cudaMalloc(&ptr, want), what);
+        bytes = want;
+      }
+      void release()
+      {
+        if (ptr) cudaFree(ptr);
+        ptr = nullptr;
+        bytes = 0;
+      }
+    };
+  }    // namespace
+
+  struct GravityEngine::Impl {
+    int device = 0;
+    int num_sms = 1;
+    std::string name;
+    cudaStream_t stream = nullptr;
+    cudaEvent_t start = nullptr, stop = nullptr;
+    Buffer x, m, src, src_lo, tidx, scratch, f, e, v;
+    long nsrc = 0, ntgt = 0;
+    std::vector<int> host_tidx;
+    float kernel_ms = 0.0f;
+  };
+
+  GravityEngine::GravityEngine(int device) : impl(new Impl)
+  {
+    impl->device = device;
+    try {
+      check(cudaSetDevice(device), "cudaSetDevice");
+      cudaDeviceProp prop;
+      check(cudaGetDeviceProperties(&prop, device), "cudaGetDeviceProperties");
+      impl->num_sms = prop.multiProcessorCount;
+      impl->name = prop.name;
+      check(cudaStreamCreateWithFlags(&impl->stream, cudaStreamNonBlocking), "cudaStreamCreate");
+      check(cudaEventCreate(&impl->start), "cudaEventCreate");
+      check(cudaEventCreate(&impl->stop), "cudaEventCreate");
+    } catch (...) {
+      delete impl;
+      throw;
+    }
+  }
+
+  GravityEngine::~GravityEngine()
+  {
+    cudaSetDevice(impl->device);
+    for (Buffer *b : {&impl->x, &impl->m, &impl->src, &impl->src_lo, &impl->tidx, &impl->scratch,
+                      &impl->f, &impl->e, &impl->v})
+      b->release();
+    if (impl->start) cudaEventDestroy(impl->start);
+    if (impl->stop) cudaEventDestroy(impl->stop);
+    if (impl->stream) cudaStreamDestroy(impl->stream);
+    delete impl;
+  }
+
+  int GravityEngine::device() const { return impl->device; }
+  std::string GravityEngine::device_name() const { return impl->name; }
+  float GravityEngine::last_kernel_ms() const { return impl->kernel_ms; }
+
+  void GravityEngine::set_sources(long n, const double *x, const double *m, bool masses_changed)
+  {
+    check(cudaSetDevice(impl->device), "cudaSetDevice");
+    const bool grown = (n != impl->nsrc);
+    impl->x.reserve(3 * n * sizeof(double) + 1, "cudaMalloc(positions)");
+    impl->m.reserve(n * sizeof(double) + 1, "cudaMalloc(masses)");
+    check(cudaMemcpyAsync(impl->x.ptr, x, 3 * n * sizeof(double), cudaMemcpyHostToDevice,
+                          impl->stream),
+          "cudaMemcpy(positions)");
+    if (grown || masses_changed)
+      check(cudaMemcpyAsync(impl->m.ptr, m, n * sizeof(double), cudaMemcpyHostToDevice,
+                            impl->stream),
+            "cudaMemcpy(masses)");
+    impl->nsrc = n;
+  }
+
+  void GravityEngine::set_targets(long ntgt, const long *index)
+  {
+    check(cudaSetDevice(impl->device), "cudaSetDevice");
+    bool same = (ntgt == impl->ntgt);
+    for (long i = 0; same && i < ntgt; ++i) same = (impl->host_tidx[i] == (int) index[i]);
+    if (same) return;
+    impl->host_tidx.resize(ntgt);
+    for (long i = 0; i < ntgt; ++i) impl->host_tidx[i] = (int) index[i];
+    impl->tidx.reserve(ntgt * sizeof(int) + 1, "cudaMalloc(targets)");
+    check(cudaMemcpyAsync(impl->tidx.ptr, impl->host_tidx.data(), ntgt * sizeof(int),
+                          cudaMemcpyHostToDevice, impl->stream),
+          "cudaMemcpy(targets)");
+    // The stream keeps the copy ordered before the next kernel; host_tidx must stay valid
+    // until then, which it does (it only changes in the next set_targets call, after a sync).
+    check(cudaStreamSynchronize(impl->stream), "cudaStreamSynchronize(targets)");
+    impl->ntgt = ntgt;
+  }
+
+  void GravityEngine::compute(Precision p, const GravityArgs &a, double *f, double *e, double *v,
+                              GravityShape shape)
+  {
+    check(cudaSetDevice(impl->device), "cudaSetDevice");
+    const long n = impl->nsrc, nt = impl->ntgt;
+    if (shape.splits <= 0) shape = choose_shape(p, nt, n, impl->num_sms);
+    impl->src.reserve(source_bytes(p) * n + 1, "cudaMalloc(sources)");
+    if (p == Precision::Mixed) impl->src_lo.reserve(16 * n + 1, "cudaMalloc(sources)");
+    impl->scratch.reserve(scratch_bytes(p, shape, nt, a.energy_virial) + 1, "cudaMalloc(scratch)");
+    impl->f.reserve(3 * nt * sizeof(double) + 1, "cudaMalloc(forces)");
+    if (a.energy_virial) {
+      impl->e.reserve(nt * sizeof(double) + 1, "cudaMalloc(energies)");
+      impl->v.reserve(6 * nt * sizeof(double) + 1, "cudaMalloc(virials)");
+    }
+    check(pack_sources(p, (const double *) impl->x.ptr, (const double *) impl->m.ptr, n, a,
+                       impl->src.ptr, impl->src_lo.ptr, impl->stream),
+          "pack_sources kernel");
+    check(cudaEventRecord(impl->start, impl->stream), "cudaEventRecord");
+    check(compute_gravity(p, shape, impl->src.ptr, impl->src_lo.ptr, n, (const int *) impl->tidx.ptr,
+                          nt, (const double *) impl->m.ptr, a, impl->scratch.ptr,
+                          (double *) impl->f.ptr, (double *) impl->e.ptr, (double *) impl->v.ptr,
+                          impl->stream),
+          "gravity kernel");
+    check(cudaEventRecord(impl->stop, impl->stream), "cudaEventRecord");
+    check(cudaMemcpyAsync(f, impl->f.ptr, 3 * nt * sizeof(double), cudaMemcpyDeviceToHost,
+                          impl->stream),
+          "cudaMemcpy(forces)");
+    if (a.energy_virial) {
+      check(cudaMemcpyAsync(e, impl->e.ptr, nt * sizeof(double), cudaMemcpyDeviceToHost,
+                            impl->stream),
+            "cudaMemcpy(energies)");
+      check(cudaMemcpyAsync(v, impl->v.ptr, 6 * nt * sizeof(double), cudaMemcpyDeviceToHost,
+                            impl->stream),
+            "cudaMemcpy(virials)");
+    }
+    check(cudaStreamSynchronize(impl->stream), "gravity kernel (synchronize)");
+    check(cudaEventElapsedTime(&impl->kernel_ms, impl->start, impl->stop), "cudaEventElapsedTime");
+  }
+
+}    // namespace GPU
+}    // namespace HSGPU

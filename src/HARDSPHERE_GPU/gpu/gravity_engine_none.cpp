@@ -1,0 +1,27 @@
+/* HARDSPHERE_GPU: GravityEngine for a build without CUDA: constructing one throws, so callers
+   fall back to the CPU path with a message. */
+#include "gravity_engine.h"
+
+namespace HSGPU {
+namespace GPU {
+
+  struct GravityEngine::Impl {};
+
+  GravityEngine::GravityEngine(int) : impl(nullptr)
+  {
+    throw Error("HARDSPHERE_GPU was built without CUDA");
+  }
+  GravityEngine::~GravityEngine() = default;
+  int GravityEngine::device() const { return -1; }
+  std::string GravityEngine::device_name() const { return ""; }
+  void GravityEngine::set_sources(long, const double *, const double *, bool) {}
+  void GravityEngine::set_targets(long, const long *) {}
+  void GravityEngine::compute(Precision, const GravityArgs &, double *, double *, double *,
+                              GravityShape)
+  {
+    throw Error("HARDSPHERE_GPU was built without CUDA");
+  }
+  float GravityEngine::last_kernel_ms() const { return 0.0f; }
+
+}    // namespace GPU
+}    // namespace HSGPU

@@ -1,0 +1,515 @@
+/* HARDSPHERE_GPU: tiled all-pairs gravity kernels, see gravity_kernels.cuh.
+
+   One thread block owns BLOCK*ILP targets and one range ("split") of the sources.  It walks
+   the range in tiles of BLOCK sources that the block stages in shared memory; every thread
+   sums the tile's pull on its ILP targets.  Splitting the sources over several block rows
+   keeps all multiprocessors busy for small N; a finalize kernel adds the splits in a fixed
+   order (deterministic), multiplies by G m_i and writes doubles.
+
+   Per interaction, forces only, single precision: 3 FADD (d), 3 FFMA (r^2 + eps^2), 1 MUFU
+   (rsqrt), 3 FMUL (m_j / r^3), 3 FFMA (accumulate) = 13 issued instructions; the shared-memory
+   load of a source (one 16 B broadcast) is shared by the ILP targets of a thread.  Minimum
+   image adds 3 per dimension, energy 1 and virial 9.  Global memory traffic is negligible:
+   each tile is read once per block from L2. */
+
+#include "gravity_kernels.cuh"
+
+#include <algorithm>
+
+namespace HSGPU {
+namespace GPU {
+
+  namespace {
+
+    constexpr int REF_BLOCK = 256;
+
+    // Packed double-precision source (CUDA 13 deprecates the unsized double4).
+    struct __align__(32) Src64 {
+      double x, y, z, w;
+    };
+
+    // Arguments in the form the kernels use (floats where the precision wants them).
+    template <class R> struct KArgs {
+      R eps2, cut_eff;    // cut_eff = cutsq + eps2, compared with r^2 + eps^2
+      R prd[3], iprd[3];
+      R prd_lo[3];        // Mixed: prd = prd + prd_lo (double) to about 2^-48
+    };
+
+    template <class R> KArgs<R> make_kargs(const GravityArgs &a)
+    {
+      KArgs<R> k;
+      k.eps2 = (R) a.eps2;
+      k.cut_eff = (R) (a.cutsq + a.eps2);
+      for (int d = 0; d < 3; ++d) {
+        const double p = a.periodic[d] ? a.prd[d] : 0.0;
+        k.prd[d] = (R) p;
+        k.iprd[d] = a.periodic[d] ? (R) (1.0 / a.prd[d]) : (R) 0;
+        k.prd_lo[d] = (R) (p - (double) k.prd[d]);
+      }
+      return k;
+    }
+
+    // ---------------------------------------------------------------- packing
+    // One thread per source; reads 32 B, writes 16 or 32 B.
+    __global__ void pack_single(const double *__restrict__ x, const double *__restrict__ m,
+                                long n, double3 lo, float4 *__restrict__ src)
+    {
+      const long i = blockIdx.x * (long) blockDim.x + threadIdx.x;
+      if (i >= n) return;
+      src[i] = make_float4((float) (x[3 * i] - lo.x), (float) (x[3 * i + 1] - lo.y),
+                           (float) (x[3 * i + 2] - lo.z), (float) m[i]);
+    }
+
+    __device__ inline void split2(double v, float &hi, float &lo)
+    {
+      hi = (float) v;
+      lo = (float) (v - (double) hi);
+    }
+
+    __global__ void pack_mixed(const double *__restrict__ x, const double *__restrict__ m, long n,
+                               double3 lo, float4 *__restrict__ hi4, float4 *__restrict__ lo4)
+    {
+      const long i = blockIdx.x * (long) blockDim.x + threadIdx.x;
+      if (i >= n) return;
+      float h[3], l[3];
+      split2(x[3 * i] - lo.x, h[0], l[0]);
+      split2(x[3 * i + 1] - lo.y, h[1], l[1]);
+      split2(x[3 * i + 2] - lo.z, h[2], l[2]);
+      hi4[i] = make_float4(h[0], h[1], h[2], (float) m[i]);
+      lo4[i] = make_float4(l[0], l[1], l[2], 0.0f);
+    }
+
+    __global__ void pack_double(const double *__restrict__ x, const double *__restrict__ m,
+                                long n, double3 lo, Src64 *__restrict__ src)
+    {
+      const long i = blockIdx.x * (long) blockDim.x + threadIdx.x;
+      if (i >= n) return;
+      src[i] = Src64{x[3 * i] - lo.x, x[3 * i + 1] - lo.y, x[3 * i + 2] - lo.z, m[i]};
+    }
+
+    // ---------------------------------------------------------------- pair arithmetic
+    template <class R> struct TargetSums {
+      R a[3];    // sum m_j (x_j - x_i) / s^3
+      R e;       // sum m_j / s
+      R v[6];    // sum m_j d d / s^3
+    };
+
+    template <class R> __device__ inline void zero(TargetSums<R> &t)
+    {
+      t.a[0] = t.a[1] = t.a[2] = t.e = (R) 0;
+      for (int k = 0; k < 6; ++k) t.v[k] = (R) 0;
+    }
+
+    __device__ inline float rsqrt_p(float x) { return rsqrtf(x); }
+    __device__ inline double rsqrt_p(double x) { return rsqrt(x); }
+    __device__ inline float rint_p(float x) { return rintf(x); }
+    __device__ inline float fma_p(float a, float b, float c) { return fmaf(a, b, c); }
+    __device__ inline double fma_p(double a, double b, double c) { return fma(a, b, c); }
+    __device__ inline double rint_p(double x) { return rint(x); }
+
+    // Adds the pull of one source (mass mj, displacement d = x_j - x_i) on one target.
+    // `keep` false drops the pair (the target itself).
+    template <class R, bool EV, bool CUT>
+    __device__ inline void accumulate(TargetSums<R> &t, R dx, R dy, R dz, R mj, const KArgs<R> &k,
+                                      bool keep = true)
+    {
+      R r2 = fma_p(dx, dx, fma_p(dy, dy, fma_p(dz, dz, k.eps2)));
+      if (!keep) {
+        r2 = (R) 1;
+        mj = (R) 0;
+      }
+      if (CUT) mj = (r2 > k.cut_eff) ? (R) 0 : mj;
+      const R inv = rsqrt_p(r2);
+      const R mi = mj * inv;
+      const R s = mi * (inv * inv);
+      t.a[0] = fma_p(s, dx, t.a[0]);
+      t.a[1] = fma_p(s, dy, t.a[1]);
+      t.a[2] = fma_p(s, dz, t.a[2]);
+      if (EV) {
+        t.e += mi;
+        const R sx = s * dx, sy = s * dy;
+        t.v[0] = fma_p(sx, dx, t.v[0]);
+        t.v[1] = fma_p(sy, dy, t.v[1]);
+        t.v[2] = fma_p(s * dz, dz, t.v[2]);
+        t.v[3] = fma_p(sx, dy, t.v[3]);
+        t.v[4] = fma_p(sx, dz, t.v[4]);
+        t.v[5] = fma_p(sy, dz, t.v[5]);
+      }
+    }
+
+    template <class R, bool PER> __device__ inline R image(R d, int dim, const KArgs<R> &k)
+    {
+      if (PER) d = fma_p(-k.prd[dim], rint_p(d * k.iprd[dim]), d);
+      return d;
+    }
+
+    // Mixed: displacement from hi/lo pairs; the image shift is applied to the hi part with
+    // the float prd and its remainder prd_lo.
+    template <bool PER>
+    __device__ inline float image_mixed(float dh, float dl, int dim, const KArgs<float> &k)
+    {
+      if (PER) {
+        const float n = rintf(dh * k.iprd[dim]);
+        dh = fmaf(-k.prd[dim], n, dh);
+        dl = fmaf(-k.prd_lo[dim], n, dl);
+      }
+      return dh + dl;
+    }
+
+    // Displacement d = x_j - x_i (nearest image when PER) in the precision's arithmetic.
+    template <int PREC, bool PER, class Src, class R>
+    __device__ inline void displacement(const Src &s, const float4 &l, const R *xi, const R *xl,
+                                        const KArgs<R> &k, R *d)
+    {
+      if constexpr (PREC == 1) {
+        d[0] = image_mixed<PER>(s.x - xi[0], l.x - xl[0], 0, k);
+        d[1] = image_mixed<PER>(s.y - xi[1], l.y - xl[1], 1, k);
+        d[2] = image_mixed<PER>(s.z - xi[2], l.z - xl[2], 2, k);
+      } else {
+        d[0] = image<R, PER>(s.x - xi[0], 0, k);
+        d[1] = image<R, PER>(s.y - xi[1], 1, k);
+        d[2] = image<R, PER>(s.z - xi[2], 2, k);
+      }
+    }
+
+    // ---------------------------------------------------------------- tiled kernel
+    // Grid: x = ceil(ntgt / (BLOCK*ILP)) target groups, y = splits.  Block: BLOCK threads.
+    // Shared memory: BLOCK packed sources (16 or 32 B each).
+    // Scratch output per (split, target): 3 (+1 +6) partial sums of type P.
+    template <int PREC> struct PrecTypes;
+    template <> struct PrecTypes<0> {    // Single
+      using R = float;
+      using Part = float;
+      using Src = float4;
+    };
+    template <> struct PrecTypes<1> {    // Mixed: fp32 pairs, fp64 sums per tile
+      using R = float;
+      using Part = double;
+      using Src = float4;
+    };
+    template <> struct PrecTypes<2> {    // Double
+      using R = double;
+      using Part = double;
+      using Src = Src64;
+    };
+
+    template <class Part, class R> __device__ inline void add_into(TargetSums<Part> &dst, TargetSums<R> &src)
+    {
+      for (int c = 0; c < 3; ++c) dst.a[c] += (Part) src.a[c];
+      dst.e += (Part) src.e;
+      for (int c = 0; c < 6; ++c) dst.v[c] += (Part) src.v[c];
+      zero(src);
+    }
+
+    template <int PREC, bool PER, bool EV, bool CUT, int BLOCK, int ILP>
+    __global__ void __launch_bounds__(BLOCK)
+        gravity_tiles(const typename PrecTypes<PREC>::Src *__restrict__ src,
+                      const float4 *__restrict__ src_lo, long nsrc, long chunk,
+                      const int *__restrict__ tidx, long ntgt, KArgs<typename PrecTypes<PREC>::R> k,
+                      typename PrecTypes<PREC>::Part *__restrict__ part)
+    {
+      using R = typename PrecTypes<PREC>::R;
+      using Part = typename PrecTypes<PREC>::Part;
+      using Src = typename PrecTypes<PREC>::Src;
+      constexpr bool MIXED = (PREC == 1);
+      __shared__ Src sh[BLOCK];
+      __shared__ float4 shl[MIXED ? BLOCK : 1];
+
+      const long split = blockIdx.y;
+      const long jbeg = split * chunk;
+      const long jend = min(nsrc, jbeg + chunk);
+
+      long self[ILP];
+      R xi[ILP][3], xl[ILP][3];
+      TargetSums<R> t[ILP];
+      TargetSums<Part> total[ILP];
+      for (int q = 0; q < ILP; ++q) {
+        const long ti = (blockIdx.x * (long) ILP + q) * BLOCK + threadIdx.x;
+        self[q] = (ti < ntgt) ? tidx[ti] : -1;
+        const long si = (self[q] >= 0) ? self[q] : 0;
+        const Src p = src[si];
+        xi[q][0] = p.x;
+        xi[q][1] = p.y;
+        xi[q][2] = p.z;
+        if constexpr (MIXED) {
+          const float4 l = src_lo[si];
+          xl[q][0] = l.x;
+          xl[q][1] = l.y;
+          xl[q][2] = l.z;
+        }
+        zero(t[q]);
+        zero(total[q]);
+      }
+
+      for (long base = jbeg; base < jend; base += BLOCK) {
+        const long j = base + threadIdx.x;
+        __syncthreads();
+        if (j < jend) {
+          sh[threadIdx.x] = src[j];
+          if constexpr (MIXED) shl[threadIdx.x] = src_lo[j];
+        }
+        __syncthreads();
+        const int count = (int) min((long) BLOCK, jend - base);
+        bool checked = (count < BLOCK);
+        for (int q = 0; q < ILP; ++q) checked |= (self[q] >= base && self[q] < base + BLOCK);
+
+        if (!checked) {
+#pragma unroll 8
+          for (int jj = 0; jj < BLOCK; ++jj) {
+            const Src s = sh[jj];
+            float4 l;
+            if constexpr (MIXED) l = shl[jj];
+#pragma unroll
+            for (int q = 0; q < ILP; ++q) {
+              R d[3];
+              displacement<PREC, PER>(s, l, xi[q], xl[q], k, d);
+              accumulate<R, EV, CUT>(t[q], d[0], d[1], d[2], (R) s.w, k);
+            }
+          }
+        } else {
+          // The tile holds a target itself or is the last, partial one: test every source.
+          for (int jj = 0; jj < count; ++jj) {
+            const Src s = sh[jj];
+            float4 l;
+            if constexpr (MIXED) l = shl[jj];
+            const long jg = base + jj;
+            for (int q = 0; q < ILP; ++q) {
+              R d[3];
+              displacement<PREC, PER>(s, l, xi[q], xl[q], k, d);
+              accumulate<R, EV, CUT>(t[q], d[0], d[1], d[2], (R) s.w, k, jg != self[q]);
+            }
+          }
+        }
+        if constexpr (MIXED)
+          for (int q = 0; q < ILP; ++q) add_into(total[q], t[q]);
+      }
+      if constexpr (!MIXED)
+        for (int q = 0; q < ILP; ++q) add_into(total[q], t[q]);
+
+      for (int q = 0; q < ILP; ++q) {
+        const long ti = (blockIdx.x * (long) ILP + q) * BLOCK + threadIdx.x;
+        if (ti >= ntgt) continue;
+        const long o = split * ntgt + ti;
+        part[3 * o] = total[q].a[0];
+        part[3 * o + 1] = total[q].a[1];
+        part[3 * o + 2] = total[q].a[2];
+        if (EV) {
+          Part *pe = part + 3 * ntgt * gridDim.y;
+          pe[o] = total[q].e;
+          Part *pv = pe + ntgt * gridDim.y;
+          for (int c = 0; c < 6; ++c) pv[6 * o + c] = total[q].v[c];
+        }
+      }
+    }
+
+    // Sums the splits of each target in split order and scales by G m_i:
+    // F = G m_i a,  e = -G m_i E / 2,  W = -G m_i V / 2.  One thread per target.
+    template <class Part>
+    __global__ void finalize(const Part *__restrict__ part, int splits, long ntgt,
+                             const int *__restrict__ tidx, const double *__restrict__ m, double G,
+                             bool ev, double *__restrict__ f, double *__restrict__ e,
+                             double *__restrict__ v)
+    {
+      const long ti = blockIdx.x * (long) blockDim.x + threadIdx.x;
+      if (ti >= ntgt) return;
+      const double gm = G * m[tidx[ti]];
+      double a[3] = {0, 0, 0};
+      for (int s = 0; s < splits; ++s)
+        for (int c = 0; c < 3; ++c) a[c] += (double) part[3 * (s * ntgt + ti) + c];
+      for (int c = 0; c < 3; ++c) f[3 * ti + c] = gm * a[c];
+      if (!ev) return;
+      const Part *pe = part + 3 * ntgt * splits;
+      const Part *pv = pe + ntgt * splits;
+      double es = 0.0, vs[6] = {0, 0, 0, 0, 0, 0};
+      for (int s = 0; s < splits; ++s) {
+        es += (double) pe[s * ntgt + ti];
+        for (int c = 0; c < 6; ++c) vs[c] += (double) pv[6 * (s * ntgt + ti) + c];
+      }
+      e[ti] = -0.5 * gm * es;
+      for (int c = 0; c < 6; ++c) v[6 * ti + c] = -0.5 * gm * vs[c];
+    }
+
+    // Plain baseline: one body per thread, 256-body tiles, fp32, rsqrtf, forces only.
+    __global__ void __launch_bounds__(REF_BLOCK)
+        reference_kernel(const float4 *__restrict__ pos, int n, float eps2, float4 *__restrict__ acc)
+    {
+      __shared__ float4 sh[REF_BLOCK];
+      const int i = blockIdx.x * REF_BLOCK + threadIdx.x;
+      const float4 pi = pos[min(i, n - 1)];
+      float ax = 0.f, ay = 0.f, az = 0.f;
+      for (int base = 0; base < n; base += REF_BLOCK) {
+        __syncthreads();
+        const int j = base + threadIdx.x;
+        sh[threadIdx.x] = (j < n) ? pos[j] : make_float4(0.f, 0.f, 0.f, 0.f);
+        __syncthreads();
+#pragma unroll 8
+        for (int jj = 0; jj < REF_BLOCK; ++jj) {
+          const float4 pj = sh[jj];
+          const float dx = pj.x - pi.x, dy = pj.y - pi.y, dz = pj.z - pi.z;
+          const float r2 = fmaf(dx, dx, fmaf(dy, dy, fmaf(dz, dz, eps2)));
+          const float inv = rsqrtf(r2);
+          const float s = pj.w * inv * inv * inv;
+          ax = fmaf(s, dx, ax);
+          ay = fmaf(s, dy, ay);
+          az = fmaf(s, dz, az);
+        }
+      }
+      if (i < n) acc[i] = make_float4(ax, ay, az, 0.f);
+    }
+
+    template <int PREC, bool PER, bool EV, bool CUT, int BLOCK, int ILP>
+    void launch_tiles(const GravityShape &s, const void *src, const void *src_lo, long nsrc,
+                      const int *tidx, long ntgt, const GravityArgs &a, void *scratch,
+                      cudaStream_t st)
+    {
+      using T = PrecTypes<PREC>;
+      const long groups = (ntgt + (long) BLOCK * ILP - 1) / ((long) BLOCK * ILP);
+      const long chunk = ((nsrc + s.splits - 1) / s.splits + BLOCK - 1) / BLOCK * BLOCK;
+      dim3 grid((unsigned) groups, (unsigned) s.splits);
+      gravity_tiles<PREC, PER, EV, CUT, BLOCK, ILP><<<grid, BLOCK, 0, st>>>(
+          (const typename T::Src *) src, (const float4 *) src_lo, nsrc, chunk, tidx, ntgt,
+          make_kargs<typename T::R>(a), (typename T::Part *) scratch);
+    }
+
+    // Picks the compiled (BLOCK, ILP) variant.  The force-only open-box kernel, the hot path
+    // of the benchmark, has several shapes; the other flag combinations use 128 x 2 (Single,
+    // Mixed) or 128 x 1 (Double).
+    template <int PREC, bool PER, bool EV, bool CUT>
+    cudaError_t dispatch_shape(const GravityShape &s, const void *src, const void *src_lo,
+                               long nsrc, const int *tidx, long ntgt, const GravityArgs &a,
+                               void *scratch, cudaStream_t st)
+    {
+      constexpr bool HOT = !PER && !EV && !CUT;
+      if (HOT && s.block == 256 && s.ilp == 1)
+        launch_tiles<PREC, PER, EV, CUT, 256, 1>(s, src, src_lo, nsrc, tidx, ntgt, a, scratch, st);
+      else if (HOT && s.block == 128 && s.ilp == 1)
+        launch_tiles<PREC, PER, EV, CUT, 128, 1>(s, src, src_lo, nsrc, tidx, ntgt, a, scratch, st);
+      else if (HOT && s.block == 128 && s.ilp == 4)
+        launch_tiles<PREC, PER, EV, CUT, 128, 4>(s, src, src_lo, nsrc, tidx, ntgt, a, scratch, st);
+      else if (HOT && s.block == 256 && s.ilp == 2)
+        launch_tiles<PREC, PER, EV, CUT, 256, 2>(s, src, src_lo, nsrc, tidx, ntgt, a, scratch, st);
+      else if (PREC == 2)
+        launch_tiles<PREC, PER, EV, CUT, 128, 1>(s, src, src_lo, nsrc, tidx, ntgt, a, scratch, st);
+      else
+        launch_tiles<PREC, PER, EV, CUT, 128, 2>(s, src, src_lo, nsrc, tidx, ntgt, a, scratch, st);
+      return cudaGetLastError();
+    }
+
+    template <int PREC>
+    cudaError_t dispatch_flags(const GravityShape &s, const void *src, const void *src_lo,
+                               long nsrc, const int *tidx, long ntgt, const GravityArgs &a,
+                               void *scratch, cudaStream_t st)
+    {
+      const bool per = a.periodic[0] || a.periodic[1] || a.periodic[2];
+      const bool ev = a.energy_virial;
+      const bool cut = a.cutsq > 0.0;
+#define HSGPU_CASE(P, E, C)                                                                        \
+  if (per == P && ev == E && cut == C)                                                             \
+    return dispatch_shape<PREC, P, E, C>(s, src, src_lo, nsrc, tidx, ntgt, a, scratch, st);
+      HSGPU_CASE(false, false, false)
+      HSGPU_CASE(false, false, true)
+      HSGPU_CASE(false, true, false)
+      HSGPU_CASE(false, true, true)
+      HSGPU_CASE(true, false, false)
+      HSGPU_CASE(true, false, true)
+      HSGPU_CASE(true, true, false)
+      HSGPU_CASE(true, true, true)
+#undef HSGPU_CASE
+      return cudaErrorInvalidValue;
+    }
+
+    // Shapes the dispatcher actually compiles for a flag combination.
+    GravityShape compiled_shape(Precision p, const GravityShape &want, bool hot)
+    {
+      GravityShape s = want;
+      const bool listed = (want.block == 256 && (want.ilp == 1 || want.ilp == 2)) ||
+          (want.block == 128 && (want.ilp == 1 || want.ilp == 4));
+      if (!hot || !listed) {
+        s.block = 128;
+        s.ilp = (p == Precision::Double) ? 1 : 2;
+      }
+      return s;
+    }
+
+  }    // namespace
+
+  size_t source_bytes(Precision p)
+  {
+    return p == Precision::Single ? 16 : 32;
+  }
+
+  GravityShape choose_shape(Precision p, long ntgt, long nsrc, int num_sms)
+  {
+    GravityShape s;
+    s.block = 128;
+    s.ilp = (p == Precision::Double) ? 1 : 2;
+    const long per_block = (long) s.block * s.ilp;
+    const long groups = std::max(1L, (ntgt + per_block - 1) / per_block);
+    // Aim for about 4 blocks per multiprocessor, but keep at least 8 tiles per split.
+    const long want = std::max(1L, (4L * num_sms + groups - 1) / groups);
+    const long most = std::max(1L, nsrc / (8L * s.block));
+    s.splits = (int) std::min(std::min(want, most), 1024L);
+    return s;
+  }
+
+  size_t scratch_bytes(Precision p, const GravityShape &s, long ntgt, bool energy_virial)
+  {
+    const size_t part = (p == Precision::Single) ? sizeof(float) : sizeof(double);
+    return part * (size_t) s.splits * ntgt * (energy_virial ? 10 : 3);
+  }
+
+  cudaError_t pack_sources(Precision p, const double *x, const double *m, long n,
+                           const GravityArgs &a, void *src, void *src_lo, cudaStream_t st)
+  {
+    if (n <= 0) return cudaSuccess;
+    const int block = 256;
+    const unsigned grid = (unsigned) ((n + block - 1) / block);
+    const double3 lo = make_double3(a.lo[0], a.lo[1], a.lo[2]);
+    if (p == Precision::Single)
+      pack_single<<<grid, block, 0, st>>>(x, m, n, lo, (float4 *) src);
+    else if (p == Precision::Mixed)
+      pack_mixed<<<grid, block, 0, st>>>(x, m, n, lo, (float4 *) src, (float4 *) src_lo);
+    else
+      pack_double<<<grid, block, 0, st>>>(x, m, n, lo, (Src64 *) src);
+    return cudaGetLastError();
+  }
+
+  cudaError_t compute_gravity(Precision p, const GravityShape &want, const void *src,
+                              const void *src_lo, long nsrc, const int *tidx, long ntgt,
+                              const double *m, const GravityArgs &a, void *scratch, double *f,
+                              double *e, double *v, cudaStream_t st)
+  {
+    if (ntgt <= 0) return cudaSuccess;
+    const bool hot = !(a.periodic[0] || a.periodic[1] || a.periodic[2]) && !a.energy_virial &&
+        !(a.cutsq > 0.0);
+    const GravityShape s = compiled_shape(p, want, hot);
+    cudaError_t err;
+    if (p == Precision::Single)
+      err = dispatch_flags<0>(s, src, src_lo, nsrc, tidx, ntgt, a, scratch, st);
+    else if (p == Precision::Mixed)
+      err = dispatch_flags<1>(s, src, src_lo, nsrc, tidx, ntgt, a, scratch, st);
+    else
+      err = dispatch_flags<2>(s, src, src_lo, nsrc, tidx, ntgt, a, scratch, st);
+    if (err != cudaSuccess) return err;
+    const int block = 256;
+    const unsigned grid = (unsigned) ((ntgt + block - 1) / block);
+    if (p == Precision::Single)
+      finalize<float><<<grid, block, 0, st>>>((const float *) scratch, s.splits, ntgt, tidx, m,
+                                              a.G, a.energy_virial, f, e, v);
+    else
+      finalize<double><<<grid, block, 0, st>>>((const double *) scratch, s.splits, ntgt, tidx, m,
+                                               a.G, a.energy_virial, f, e, v);
+    return cudaGetLastError();
+  }
+
+  cudaError_t reference_nbody(const void *pos, long n, float eps2, void *acc, cudaStream_t st)
+  {
+    if (n <= 0) return cudaSuccess;
+    const unsigned grid = (unsigned) ((n + REF_BLOCK - 1) / REF_BLOCK);
+    reference_kernel<<<grid, REF_BLOCK, 0, st>>>((const float4 *) pos, (int) n, eps2,
+                                                 (float4 *) acc);
+    return cudaGetLastError();
+  }
+
+}    // namespace GPU
+}    // namespace HSGPU

@@ -1,0 +1,35 @@
+/* HARDSPHERE_GPU: plain types shared by the gravity driver (gravity_kernels.cuh), the engine
+   (gravity_engine.h) and the LAMMPS style.  No CUDA, LAMMPS or MPI types. */
+#ifndef HSGPU_GPU_GRAVITY_TYPES_H
+#define HSGPU_GPU_GRAVITY_TYPES_H
+
+namespace HSGPU {
+namespace GPU {
+
+  /// single: fp32 throughout; mixed: fp32 pair arithmetic on positions split into two floats
+  /// (x = hi + lo, so large coordinates lose no digits), fp32 sums over each tile of sources
+  /// added into fp64 accumulators; double: fp64 throughout.
+  enum class Precision { Single = 0, Mixed = 1, Double = 2 };
+
+  /// What one all-pairs evaluation needs besides the data.
+  struct GravityArgs {
+    double G;
+    double eps2;
+    double cutsq;          // <= 0: no cutoff
+    double lo[3];
+    double prd[3];
+    int periodic[3];
+    bool energy_virial;    // also per-target energy and virial
+  };
+
+  /// Launch shape of the tiled kernel.
+  struct GravityShape {
+    int block;     // threads per block = sources per shared-memory tile
+    int ilp;       // targets per thread
+    int splits;    // the sources are split into this many ranges, one block row each
+  };
+
+}    // namespace GPU
+}    // namespace HSGPU
+
+#endif
