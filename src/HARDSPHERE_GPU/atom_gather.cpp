@@ -50,7 +50,10 @@ void AtomGather::gather()
   int any_changed = 0;
   MPI_Allreduce(&local_changed, &any_changed, 1, MPI_INT, MPI_MAX, world);
   if (ntotal == 0) any_changed = 1;
-  const int npack = any_changed ? NPACK : NPACK - 1;
+  // Unchanged: the same atoms in the same places on every rank, so the receive layout and
+  // the atom-ID order of the last full gather still hold and positions travel alone.
+  const int npack = any_changed ? NPACK : 3;
+  const int off = any_changed ? 1 : 0;
   if (local_changed) {
     last_tag.resize(nlocal);
     last_mass.resize(nlocal);
@@ -63,11 +66,11 @@ void AtomGather::gather()
   sendbuf.resize((size_t) npack * nlocal);
   for (int i = 0; i < nlocal; ++i) {
     double *b = &sendbuf[(size_t) npack * i];
-    b[0] = (double) tag[i];
+    if (any_changed) b[0] = (double) tag[i];
     for (int d = 0; d < 3; ++d) {
       double c = xx[i][d];
       if (box.periodic[d]) c = HSGPU::Gravity::wrap_coordinate(c, box.lo[d], box.prd[d]);
-      b[1 + d] = c;
+      b[off + d] = c;
     }
     if (any_changed) b[4] = rmass ? rmass[i] : pmass[type[i]];
   }
@@ -90,7 +93,17 @@ void AtomGather::gather()
   const long n = total / npack;
   ntotal = n;
   x.resize(3 * n);
-  if (any_changed) mass.resize(n);
+  if (!any_changed) {
+    for (long s = 0; s < n; ++s) {
+      const double *b = &recvbuf[3 * order[s]];
+      x[3 * s] = b[0];
+      x[3 * s + 1] = b[1];
+      x[3 * s + 2] = b[2];
+    }
+    changed_masses = false;
+    return;    // index[] is unchanged too
+  }
+  mass.resize(n);
 
   // Atom-ID order: direct placement when IDs are exactly 1..n, a sort otherwise.
   double maxtag = 0.0;
@@ -108,20 +121,18 @@ void AtomGather::gather()
     for (long s = 0; s < n; ++s) tags_sorted[s] = recvbuf[npack * order[s]];
   }
 
-  changed_masses = any_changed;
+  changed_masses = true;
   for (long s = 0; s < n; ++s) {
     const double *b = &recvbuf[npack * order[s]];
     x[3 * s] = b[1];
     x[3 * s + 1] = b[2];
     x[3 * s + 2] = b[3];
-    if (!any_changed) continue;
     if (!(b[4] > 0.0))
       error->all(FLERR, "Pair style {} requires positive masses: atom {} has mass {}", style,
                  (tagint) b[0], b[4]);
     mass[s] = b[4];
   }
 
-  if (!any_changed && (long) index.size() == nlocal) return;    // same owned atoms, same places
   index.resize(nlocal);
   for (int i = 0; i < nlocal; ++i) {
     if (direct) {

@@ -16,13 +16,17 @@
 #include "gpu/device_info.cuh"
 #include "gpu/gravity_engine.h"
 
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 
 using namespace LAMMPS_NS;
 
 PairGravity::PairGravity(LAMMPS *lmp) :
     Pair(lmp), gravity_g(0.0), softening_eps(0.0), cutoff(0.0), gather(nullptr), gpu_requested(0),
-    precision((int) HSGPU::GPU::Precision::Mixed), device_request(-1), engine(nullptr)
+    precision((int) HSGPU::GPU::Precision::Mixed), device_request(-1), engine(nullptr),
+    t_gather(0.0), t_upload(0.0), t_kernel(0.0), t_total(0.0), ncalls(0),
+    timing(std::getenv("HSGPU_TIMING") != nullptr)
 {
   single_enable = 0;
   restartinfo = 1;
@@ -35,6 +39,11 @@ PairGravity::PairGravity(LAMMPS *lmp) :
 
 PairGravity::~PairGravity()
 {
+  if (timing && comm->me == 0 && ncalls > 0 && screen)
+    fprintf(screen,
+            "Pair gravity timing on rank 0 over %ld calls (s/call): total %.4g, gather %.4g, "
+            "device transfers+launch %.4g, kernels %.4g\n",
+            ncalls, t_total / ncalls, t_gather / ncalls, t_upload / ncalls, t_kernel / ncalls);
   delete gather;
   delete engine;
   if (allocated) {
@@ -198,13 +207,21 @@ double PairGravity::init_one(int, int)
 void PairGravity::compute(int eflag, int vflag)
 {
   ev_init(eflag, vflag);
+  const double t0 = timing ? MPI_Wtime() : 0.0;
   gather->gather();
+  const double t1 = timing ? MPI_Wtime() : 0.0;
   const int nlocal = atom->nlocal;
   if (engine)
     compute_gpu(nlocal);
   else
     compute_cpu(nlocal);
   tally(nlocal);
+  if (timing) {
+    const double t2 = MPI_Wtime();
+    t_gather += t1 - t0;
+    t_total += t2 - t0;
+    ++ncalls;
+  }
 }
 
 void PairGravity::compute_cpu(int nlocal)
@@ -252,11 +269,17 @@ void PairGravity::compute_gpu(int nlocal)
   gpu_e.resize(a.energy_virial ? nlocal : 0);
   gpu_v.resize(a.energy_virial ? 6 * (size_t) nlocal : 0);
   try {
+    const double t0 = timing ? MPI_Wtime() : 0.0;
     engine->set_sources(gather->ntotal, gather->x.data(), gather->mass.data(),
                         gather->changed_masses);
     engine->set_targets(nlocal, gather->index.data());
     engine->compute((HSGPU::GPU::Precision) precision, a, gpu_f.data(), gpu_e.data(),
                     gpu_v.data());
+    if (timing) {
+      const double k = 1e-3 * engine->last_kernel_ms();
+      t_kernel += k;
+      t_upload += MPI_Wtime() - t0 - k;
+    }
   } catch (std::exception &e) {
     error->one(FLERR, "Pair gravity on CUDA device {}: {}", engine->device(), e.what());
   }

@@ -55,6 +55,10 @@ class PairGravity : public Pair {
   int device_request;   // -1: pick from the node-local rank
   HSGPU::GPU::GravityEngine *engine;    // null: CPU path
   std::vector<double> gpu_f, gpu_e, gpu_v;
+  // HSGPU_TIMING=1 in the environment: seconds spent per phase, printed by rank 0 at the end
+  double t_gather, t_upload, t_kernel, t_total;
+  long ncalls;
+  bool timing;
 
   struct TargetSums {
     double e;

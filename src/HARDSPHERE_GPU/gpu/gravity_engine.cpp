@@ -49,7 +49,8 @@ namespace GPU {
     std::string name;
     cudaStream_t stream = nullptr;
     cudaEvent_t start = nullptr, stop = nullptr;
-    Buffer x, m, src, src_lo, tidx, scratch, f, e, v;
+    Buffer x, m, src, tidx, scratch, f, e, v;
+    Buffer keys, tsorted, slot, sort_temp;    // Mixed: targets in Z-curve order
     long nsrc = 0, ntgt = 0;
     std::vector<int> host_tidx;
     float kernel_ms = 0.0f;
@@ -76,8 +77,9 @@ namespace GPU {
   GravityEngine::~GravityEngine()
   {
     cudaSetDevice(impl->device);
-    for (Buffer *b : {&impl->x, &impl->m, &impl->src, &impl->src_lo, &impl->tidx, &impl->scratch,
-                      &impl->f, &impl->e, &impl->v})
+    for (Buffer *b : {&impl->x, &impl->m, &impl->src, &impl->tidx, &impl->scratch, &impl->f,
+                      &impl->e, &impl->v, &impl->keys, &impl->tsorted, &impl->slot,
+                      &impl->sort_temp})
       b->release();
     if (impl->start) cudaEventDestroy(impl->start);
     if (impl->stop) cudaEventDestroy(impl->stop);
@@ -130,7 +132,6 @@ namespace GPU {
     const long n = impl->nsrc, nt = impl->ntgt;
     if (shape.splits <= 0) shape = choose_shape(p, nt, n, impl->num_sms);
     impl->src.reserve(source_bytes(p) * n + 1, "cudaMalloc(sources)");
-    if (p == Precision::Mixed) impl->src_lo.reserve(16 * n + 1, "cudaMalloc(sources)");
     impl->scratch.reserve(scratch_bytes(p, shape, nt, a.energy_virial) + 1, "cudaMalloc(scratch)");
     impl->f.reserve(3 * nt * sizeof(double) + 1, "cudaMalloc(forces)");
     if (a.energy_virial) {
@@ -138,11 +139,26 @@ namespace GPU {
       impl->v.reserve(6 * nt * sizeof(double) + 1, "cudaMalloc(virials)");
     }
     check(pack_sources(p, (const double *) impl->x.ptr, (const double *) impl->m.ptr, n, a,
-                       impl->src.ptr, impl->src_lo.ptr, impl->stream),
+                       impl->src.ptr, impl->stream),
           "pack_sources kernel");
     check(cudaEventRecord(impl->start, impl->stream), "cudaEventRecord");
-    check(compute_gravity(p, shape, impl->src.ptr, impl->src_lo.ptr, n, (const int *) impl->tidx.ptr,
-                          nt, (const double *) impl->m.ptr, a, impl->scratch.ptr,
+    const int *targets = (const int *) impl->tidx.ptr;
+    const int *slot = nullptr;
+    if (p == Precision::Mixed && nt > 0) {
+      const size_t temp = sort_temp_bytes(nt);
+      impl->keys.reserve(2 * nt * sizeof(unsigned), "cudaMalloc(sort keys)");
+      impl->tsorted.reserve(nt * sizeof(int), "cudaMalloc(sorted targets)");
+      impl->slot.reserve(nt * sizeof(int), "cudaMalloc(target slots)");
+      impl->sort_temp.reserve(temp, "cudaMalloc(sort space)");
+      check(sort_targets((const double *) impl->x.ptr, targets, nt, a, (unsigned *) impl->keys.ptr,
+                         (int *) impl->tsorted.ptr, (int *) impl->slot.ptr, impl->sort_temp.ptr,
+                         temp, impl->stream),
+            "target sort");
+      targets = (const int *) impl->tsorted.ptr;
+      slot = (const int *) impl->slot.ptr;
+    }
+    check(compute_gravity(p, shape, impl->src.ptr, n, targets, slot, nt,
+                          (const double *) impl->m.ptr, a, impl->scratch.ptr,
                           (double *) impl->f.ptr, (double *) impl->e.ptr, (double *) impl->v.ptr,
                           impl->stream),
           "gravity kernel");

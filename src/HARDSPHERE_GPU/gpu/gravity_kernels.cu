@@ -9,10 +9,14 @@
    Per interaction, forces only, single precision: 3 FADD (d), 3 FFMA (r^2 + eps^2), 1 MUFU
    (rsqrt), 3 FMUL (m_j / r^3), 3 FFMA (accumulate) = 13 issued instructions; the shared-memory
    load of a source (one 16 B broadcast) is shared by the ILP targets of a thread.  Minimum
-   image adds 3 per dimension, energy 1 and virial 9.  Global memory traffic is negligible:
-   each tile is read once per block from L2. */
+   image adds 3 per dimension, energy 1 and virial 9.  Mixed precision costs the same per
+   pair; converting a tile's sources to the block origin (3 DADD + 3 F2F each) and adding the
+   tile's fp32 sums into fp64 are per tile.  Global memory traffic is negligible: each tile is
+   read once per block from L2. */
 
 #include "gravity_kernels.cuh"
+
+#include <cub/device/device_radix_sort.cuh>
 
 #include <algorithm>
 
@@ -32,7 +36,7 @@ namespace GPU {
     template <class R> struct KArgs {
       R eps2, cut_eff;    // cut_eff = cutsq + eps2, compared with r^2 + eps^2
       R prd[3], iprd[3];
-      R prd_lo[3];        // Mixed: prd = prd + prd_lo (double) to about 2^-48
+      double dprd[3], diprd[3];    // Mixed: wrap of x - O at tile load, in double
     };
 
     template <class R> KArgs<R> make_kargs(const GravityArgs &a)
@@ -44,7 +48,8 @@ namespace GPU {
         const double p = a.periodic[d] ? a.prd[d] : 0.0;
         k.prd[d] = (R) p;
         k.iprd[d] = a.periodic[d] ? (R) (1.0 / a.prd[d]) : (R) 0;
-        k.prd_lo[d] = (R) (p - (double) k.prd[d]);
+        k.dprd[d] = p;
+        k.diprd[d] = a.periodic[d] ? 1.0 / a.prd[d] : 0.0;
       }
       return k;
     }
@@ -58,25 +63,6 @@ namespace GPU {
       if (i >= n) return;
       src[i] = make_float4((float) (x[3 * i] - lo.x), (float) (x[3 * i + 1] - lo.y),
                            (float) (x[3 * i + 2] - lo.z), (float) m[i]);
-    }
-
-    __device__ inline void split2(double v, float &hi, float &lo)
-    {
-      hi = (float) v;
-      lo = (float) (v - (double) hi);
-    }
-
-    __global__ void pack_mixed(const double *__restrict__ x, const double *__restrict__ m, long n,
-                               double3 lo, float4 *__restrict__ hi4, float4 *__restrict__ lo4)
-    {
-      const long i = blockIdx.x * (long) blockDim.x + threadIdx.x;
-      if (i >= n) return;
-      float h[3], l[3];
-      split2(x[3 * i] - lo.x, h[0], l[0]);
-      split2(x[3 * i + 1] - lo.y, h[1], l[1]);
-      split2(x[3 * i + 2] - lo.z, h[2], l[2]);
-      hi4[i] = make_float4(h[0], h[1], h[2], (float) m[i]);
-      lo4[i] = make_float4(l[0], l[1], l[2], 0.0f);
     }
 
     __global__ void pack_double(const double *__restrict__ x, const double *__restrict__ m,
@@ -143,33 +129,24 @@ namespace GPU {
       return d;
     }
 
-    // Mixed: displacement from hi/lo pairs; the image shift is applied to the hi part with
-    // the float prd and its remainder prd_lo.
-    template <bool PER>
-    __device__ inline float image_mixed(float dh, float dl, int dim, const KArgs<float> &k)
+    // Displacement d = x_j - x_i (nearest image when PER) in the precision's arithmetic;
+    // for Mixed both are already relative to the block origin.
+    template <bool PER, class S, class R>
+    __device__ inline void displacement(const S &s, const R *xi, const KArgs<R> &k, R *d)
     {
-      if (PER) {
-        const float n = rintf(dh * k.iprd[dim]);
-        dh = fmaf(-k.prd[dim], n, dh);
-        dl = fmaf(-k.prd_lo[dim], n, dl);
-      }
-      return dh + dl;
+      d[0] = image<R, PER>(s.x - xi[0], 0, k);
+      d[1] = image<R, PER>(s.y - xi[1], 1, k);
+      d[2] = image<R, PER>(s.z - xi[2], 2, k);
     }
 
-    // Displacement d = x_j - x_i (nearest image when PER) in the precision's arithmetic.
-    template <int PREC, bool PER, class Src, class R>
-    __device__ inline void displacement(const Src &s, const float4 &l, const R *xi, const R *xl,
-                                        const KArgs<R> &k, R *d)
+    // Mixed: x - O in double, wrapped to the nearest image when PER, then float.
+    template <bool PER>
+    __device__ inline float4 relative(const Src64 &g, const double *o, const KArgs<float> &k)
     {
-      if constexpr (PREC == 1) {
-        d[0] = image_mixed<PER>(s.x - xi[0], l.x - xl[0], 0, k);
-        d[1] = image_mixed<PER>(s.y - xi[1], l.y - xl[1], 1, k);
-        d[2] = image_mixed<PER>(s.z - xi[2], l.z - xl[2], 2, k);
-      } else {
-        d[0] = image<R, PER>(s.x - xi[0], 0, k);
-        d[1] = image<R, PER>(s.y - xi[1], 1, k);
-        d[2] = image<R, PER>(s.z - xi[2], 2, k);
-      }
+      double r[3] = {g.x - o[0], g.y - o[1], g.z - o[2]};
+      if (PER)
+        for (int c = 0; c < 3; ++c) r[c] = fma(-k.dprd[c], rint(r[c] * k.diprd[c]), r[c]);
+      return make_float4((float) r[0], (float) r[1], (float) r[2], (float) g.w);
     }
 
     // ---------------------------------------------------------------- tiled kernel
@@ -180,62 +157,83 @@ namespace GPU {
     template <> struct PrecTypes<0> {    // Single
       using R = float;
       using Part = float;
-      using Src = float4;
+      using Src = float4;     // in global memory
+      using Tile = float4;    // in shared memory
     };
-    template <> struct PrecTypes<1> {    // Mixed: fp32 pairs, fp64 sums per tile
+    template <> struct PrecTypes<1> {    // Mixed: fp32 pairs relative to the block origin
       using R = float;
       using Part = double;
-      using Src = float4;
+      using Src = Src64;
+      using Tile = float4;
     };
     template <> struct PrecTypes<2> {    // Double
       using R = double;
       using Part = double;
       using Src = Src64;
+      using Tile = Src64;
     };
 
-    template <class Part, class R> __device__ inline void add_into(TargetSums<Part> &dst, TargetSums<R> &src)
+    template <bool EV, class Part, class R>
+    __device__ inline void add_into(TargetSums<Part> &dst, TargetSums<R> &src)
     {
-      for (int c = 0; c < 3; ++c) dst.a[c] += (Part) src.a[c];
-      dst.e += (Part) src.e;
-      for (int c = 0; c < 6; ++c) dst.v[c] += (Part) src.v[c];
-      zero(src);
+      for (int c = 0; c < 3; ++c) {
+        dst.a[c] += (Part) src.a[c];
+        src.a[c] = (R) 0;
+      }
+      if (EV) {
+        dst.e += (Part) src.e;
+        src.e = (R) 0;
+        for (int c = 0; c < 6; ++c) {
+          dst.v[c] += (Part) src.v[c];
+          src.v[c] = (R) 0;
+        }
+      }
     }
 
     template <int PREC, bool PER, bool EV, bool CUT, int BLOCK, int ILP>
     __global__ void __launch_bounds__(BLOCK)
-        gravity_tiles(const typename PrecTypes<PREC>::Src *__restrict__ src,
-                      const float4 *__restrict__ src_lo, long nsrc, long chunk,
+        gravity_tiles(const typename PrecTypes<PREC>::Src *__restrict__ src, long nsrc, long chunk,
                       const int *__restrict__ tidx, long ntgt, KArgs<typename PrecTypes<PREC>::R> k,
                       typename PrecTypes<PREC>::Part *__restrict__ part)
     {
       using R = typename PrecTypes<PREC>::R;
       using Part = typename PrecTypes<PREC>::Part;
       using Src = typename PrecTypes<PREC>::Src;
+      using Tile = typename PrecTypes<PREC>::Tile;
       constexpr bool MIXED = (PREC == 1);
-      __shared__ Src sh[BLOCK];
-      __shared__ float4 shl[MIXED ? BLOCK : 1];
+      __shared__ Tile sh[BLOCK];
 
       const long split = blockIdx.y;
       const long jbeg = split * chunk;
       const long jend = min(nsrc, jbeg + chunk);
+      const long first = blockIdx.x * (long) ILP * BLOCK;
+
+      // Mixed: the block's origin is its first target's position.
+      double origin[3] = {0.0, 0.0, 0.0};
+      if constexpr (MIXED) {
+        const Src o = src[tidx[min(first, ntgt - 1)]];
+        origin[0] = o.x;
+        origin[1] = o.y;
+        origin[2] = o.z;
+      }
 
       long self[ILP];
-      R xi[ILP][3], xl[ILP][3];
+      R xi[ILP][3];
       TargetSums<R> t[ILP];
       TargetSums<Part> total[ILP];
       for (int q = 0; q < ILP; ++q) {
-        const long ti = (blockIdx.x * (long) ILP + q) * BLOCK + threadIdx.x;
+        const long ti = first + q * BLOCK + threadIdx.x;
         self[q] = (ti < ntgt) ? tidx[ti] : -1;
-        const long si = (self[q] >= 0) ? self[q] : 0;
-        const Src p = src[si];
-        xi[q][0] = p.x;
-        xi[q][1] = p.y;
-        xi[q][2] = p.z;
+        const Src p = src[(self[q] >= 0) ? self[q] : 0];
         if constexpr (MIXED) {
-          const float4 l = src_lo[si];
-          xl[q][0] = l.x;
-          xl[q][1] = l.y;
-          xl[q][2] = l.z;
+          const float4 r = relative<PER>(p, origin, k);
+          xi[q][0] = r.x;
+          xi[q][1] = r.y;
+          xi[q][2] = r.z;
+        } else {
+          xi[q][0] = p.x;
+          xi[q][1] = p.y;
+          xi[q][2] = p.z;
         }
         zero(t[q]);
         zero(total[q]);
@@ -245,8 +243,10 @@ namespace GPU {
         const long j = base + threadIdx.x;
         __syncthreads();
         if (j < jend) {
-          sh[threadIdx.x] = src[j];
-          if constexpr (MIXED) shl[threadIdx.x] = src_lo[j];
+          if constexpr (MIXED)
+            sh[threadIdx.x] = relative<PER>(src[j], origin, k);
+          else
+            sh[threadIdx.x] = src[j];
         }
         __syncthreads();
         const int count = (int) min((long) BLOCK, jend - base);
@@ -256,38 +256,34 @@ namespace GPU {
         if (!checked) {
 #pragma unroll 8
           for (int jj = 0; jj < BLOCK; ++jj) {
-            const Src s = sh[jj];
-            float4 l;
-            if constexpr (MIXED) l = shl[jj];
+            const Tile s = sh[jj];
 #pragma unroll
             for (int q = 0; q < ILP; ++q) {
               R d[3];
-              displacement<PREC, PER>(s, l, xi[q], xl[q], k, d);
+              displacement<PER>(s, xi[q], k, d);
               accumulate<R, EV, CUT>(t[q], d[0], d[1], d[2], (R) s.w, k);
             }
           }
         } else {
           // The tile holds a target itself or is the last, partial one: test every source.
           for (int jj = 0; jj < count; ++jj) {
-            const Src s = sh[jj];
-            float4 l;
-            if constexpr (MIXED) l = shl[jj];
+            const Tile s = sh[jj];
             const long jg = base + jj;
             for (int q = 0; q < ILP; ++q) {
               R d[3];
-              displacement<PREC, PER>(s, l, xi[q], xl[q], k, d);
+              displacement<PER>(s, xi[q], k, d);
               accumulate<R, EV, CUT>(t[q], d[0], d[1], d[2], (R) s.w, k, jg != self[q]);
             }
           }
         }
         if constexpr (MIXED)
-          for (int q = 0; q < ILP; ++q) add_into(total[q], t[q]);
+          for (int q = 0; q < ILP; ++q) add_into<EV>(total[q], t[q]);
       }
       if constexpr (!MIXED)
-        for (int q = 0; q < ILP; ++q) add_into(total[q], t[q]);
+        for (int q = 0; q < ILP; ++q) add_into<EV>(total[q], t[q]);
 
       for (int q = 0; q < ILP; ++q) {
-        const long ti = (blockIdx.x * (long) ILP + q) * BLOCK + threadIdx.x;
+        const long ti = first + q * BLOCK + threadIdx.x;
         if (ti >= ntgt) continue;
         const long o = split * ntgt + ti;
         part[3 * o] = total[q].a[0];
@@ -306,17 +302,18 @@ namespace GPU {
     // F = G m_i a,  e = -G m_i E / 2,  W = -G m_i V / 2.  One thread per target.
     template <class Part>
     __global__ void finalize(const Part *__restrict__ part, int splits, long ntgt,
-                             const int *__restrict__ tidx, const double *__restrict__ m, double G,
-                             bool ev, double *__restrict__ f, double *__restrict__ e,
-                             double *__restrict__ v)
+                             const int *__restrict__ tidx, const int *__restrict__ slot,
+                             const double *__restrict__ m, double G, bool ev,
+                             double *__restrict__ f, double *__restrict__ e, double *__restrict__ v)
     {
       const long ti = blockIdx.x * (long) blockDim.x + threadIdx.x;
       if (ti >= ntgt) return;
+      const long out = slot ? slot[ti] : ti;
       const double gm = G * m[tidx[ti]];
       double a[3] = {0, 0, 0};
       for (int s = 0; s < splits; ++s)
         for (int c = 0; c < 3; ++c) a[c] += (double) part[3 * (s * ntgt + ti) + c];
-      for (int c = 0; c < 3; ++c) f[3 * ti + c] = gm * a[c];
+      for (int c = 0; c < 3; ++c) f[3 * out + c] = gm * a[c];
       if (!ev) return;
       const Part *pe = part + 3 * ntgt * splits;
       const Part *pv = pe + ntgt * splits;
@@ -325,8 +322,8 @@ namespace GPU {
         es += (double) pe[s * ntgt + ti];
         for (int c = 0; c < 6; ++c) vs[c] += (double) pv[6 * (s * ntgt + ti) + c];
       }
-      e[ti] = -0.5 * gm * es;
-      for (int c = 0; c < 6; ++c) v[6 * ti + c] = -0.5 * gm * vs[c];
+      e[out] = -0.5 * gm * es;
+      for (int c = 0; c < 6; ++c) v[6 * out + c] = -0.5 * gm * vs[c];
     }
 
     // Plain baseline: one body per thread, 256-body tiles, fp32, rsqrtf, forces only.
@@ -358,54 +355,53 @@ namespace GPU {
     }
 
     template <int PREC, bool PER, bool EV, bool CUT, int BLOCK, int ILP>
-    void launch_tiles(const GravityShape &s, const void *src, const void *src_lo, long nsrc,
-                      const int *tidx, long ntgt, const GravityArgs &a, void *scratch,
-                      cudaStream_t st)
+    void launch_tiles(const GravityShape &s, const void *src, long nsrc, const int *tidx,
+                      long ntgt, const GravityArgs &a, void *scratch, cudaStream_t st)
     {
       using T = PrecTypes<PREC>;
       const long groups = (ntgt + (long) BLOCK * ILP - 1) / ((long) BLOCK * ILP);
       const long chunk = ((nsrc + s.splits - 1) / s.splits + BLOCK - 1) / BLOCK * BLOCK;
       dim3 grid((unsigned) groups, (unsigned) s.splits);
       gravity_tiles<PREC, PER, EV, CUT, BLOCK, ILP><<<grid, BLOCK, 0, st>>>(
-          (const typename T::Src *) src, (const float4 *) src_lo, nsrc, chunk, tidx, ntgt,
+          (const typename T::Src *) src, nsrc, chunk, tidx, ntgt,
           make_kargs<typename T::R>(a), (typename T::Part *) scratch);
     }
 
     // Picks the compiled (BLOCK, ILP) variant.  The force-only open-box kernel, the hot path
-    // of the benchmark, has several shapes; the other flag combinations use 128 x 2 (Single,
-    // Mixed) or 128 x 1 (Double).
+    // of the benchmark, has several shapes; the other flag combinations use 256 x 2 (Single,
+    // Mixed) or 256 x 1 (Double), the fastest shapes measured on an H200.
     template <int PREC, bool PER, bool EV, bool CUT>
-    cudaError_t dispatch_shape(const GravityShape &s, const void *src, const void *src_lo,
-                               long nsrc, const int *tidx, long ntgt, const GravityArgs &a,
-                               void *scratch, cudaStream_t st)
+    cudaError_t dispatch_shape(const GravityShape &s, const void *src, long nsrc,
+                               const int *tidx, long ntgt, const GravityArgs &a, void *scratch,
+                               cudaStream_t st)
     {
       constexpr bool HOT = !PER && !EV && !CUT;
       if (HOT && s.block == 256 && s.ilp == 1)
-        launch_tiles<PREC, PER, EV, CUT, 256, 1>(s, src, src_lo, nsrc, tidx, ntgt, a, scratch, st);
+        launch_tiles<PREC, PER, EV, CUT, 256, 1>(s, src, nsrc, tidx, ntgt, a, scratch, st);
       else if (HOT && s.block == 128 && s.ilp == 1)
-        launch_tiles<PREC, PER, EV, CUT, 128, 1>(s, src, src_lo, nsrc, tidx, ntgt, a, scratch, st);
+        launch_tiles<PREC, PER, EV, CUT, 128, 1>(s, src, nsrc, tidx, ntgt, a, scratch, st);
       else if (HOT && s.block == 128 && s.ilp == 4)
-        launch_tiles<PREC, PER, EV, CUT, 128, 4>(s, src, src_lo, nsrc, tidx, ntgt, a, scratch, st);
-      else if (HOT && s.block == 256 && s.ilp == 2)
-        launch_tiles<PREC, PER, EV, CUT, 256, 2>(s, src, src_lo, nsrc, tidx, ntgt, a, scratch, st);
+        launch_tiles<PREC, PER, EV, CUT, 128, 4>(s, src, nsrc, tidx, ntgt, a, scratch, st);
+      else if (HOT && s.block == 128 && s.ilp == 2)
+        launch_tiles<PREC, PER, EV, CUT, 128, 2>(s, src, nsrc, tidx, ntgt, a, scratch, st);
       else if (PREC == 2)
-        launch_tiles<PREC, PER, EV, CUT, 128, 1>(s, src, src_lo, nsrc, tidx, ntgt, a, scratch, st);
+        launch_tiles<PREC, PER, EV, CUT, 256, 1>(s, src, nsrc, tidx, ntgt, a, scratch, st);
       else
-        launch_tiles<PREC, PER, EV, CUT, 128, 2>(s, src, src_lo, nsrc, tidx, ntgt, a, scratch, st);
+        launch_tiles<PREC, PER, EV, CUT, 256, 2>(s, src, nsrc, tidx, ntgt, a, scratch, st);
       return cudaGetLastError();
     }
 
     template <int PREC>
-    cudaError_t dispatch_flags(const GravityShape &s, const void *src, const void *src_lo,
-                               long nsrc, const int *tidx, long ntgt, const GravityArgs &a,
-                               void *scratch, cudaStream_t st)
+    cudaError_t dispatch_flags(const GravityShape &s, const void *src, long nsrc,
+                               const int *tidx, long ntgt, const GravityArgs &a, void *scratch,
+                               cudaStream_t st)
     {
       const bool per = a.periodic[0] || a.periodic[1] || a.periodic[2];
       const bool ev = a.energy_virial;
       const bool cut = a.cutsq > 0.0;
 #define HSGPU_CASE(P, E, C)                                                                        \
   if (per == P && ev == E && cut == C)                                                             \
-    return dispatch_shape<PREC, P, E, C>(s, src, src_lo, nsrc, tidx, ntgt, a, scratch, st);
+    return dispatch_shape<PREC, P, E, C>(s, src, nsrc, tidx, ntgt, a, scratch, st);
       HSGPU_CASE(false, false, false)
       HSGPU_CASE(false, false, true)
       HSGPU_CASE(false, true, false)
@@ -422,10 +418,12 @@ namespace GPU {
     GravityShape compiled_shape(Precision p, const GravityShape &want, bool hot)
     {
       GravityShape s = want;
-      const bool listed = (want.block == 256 && (want.ilp == 1 || want.ilp == 2)) ||
-          (want.block == 128 && (want.ilp == 1 || want.ilp == 4));
+      // (256, 2) is compiled as the default of Single and Mixed only.
+      const bool listed = (want.block == 256 && (want.ilp == 1 ||
+                                                 (want.ilp == 2 && p != Precision::Double))) ||
+          (want.block == 128 && (want.ilp == 1 || want.ilp == 2 || want.ilp == 4));
       if (!hot || !listed) {
-        s.block = 128;
+        s.block = 256;
         s.ilp = (p == Precision::Double) ? 1 : 2;
       }
       return s;
@@ -438,16 +436,93 @@ namespace GPU {
     return p == Precision::Single ? 16 : 32;
   }
 
+  namespace {
+    // Spreads the low 10 bits of v to every third bit.
+    __device__ inline unsigned spread3(unsigned v)
+    {
+      v &= 0x3ffu;
+      v = (v | (v << 16)) & 0x030000ffu;
+      v = (v | (v << 8)) & 0x0300f00fu;
+      v = (v | (v << 4)) & 0x030c30c3u;
+      v = (v | (v << 2)) & 0x09249249u;
+      return v;
+    }
+
+    // One thread per target: 30-bit Z-curve key of its position in the box, and its slot.
+    __global__ void morton_keys(const double *__restrict__ x, const int *__restrict__ tidx,
+                                long ntgt, double3 lo, double3 inv, unsigned *__restrict__ key,
+                                int *__restrict__ slot)
+    {
+      const long t = blockIdx.x * (long) blockDim.x + threadIdx.x;
+      if (t >= ntgt) return;
+      const long i = tidx[t];
+      const double c[3] = {(x[3 * i] - lo.x) * inv.x, (x[3 * i + 1] - lo.y) * inv.y,
+                           (x[3 * i + 2] - lo.z) * inv.z};
+      unsigned q[3];
+      for (int d = 0; d < 3; ++d) q[d] = (unsigned) fmin(1023.0, fmax(0.0, c[d] * 1024.0));
+      key[t] = spread3(q[0]) | (spread3(q[1]) << 1) | (spread3(q[2]) << 2);
+      slot[t] = (int) t;
+    }
+
+    __global__ void gather_sorted(const int *__restrict__ tidx, const int *__restrict__ slot,
+                                  long ntgt, int *__restrict__ tsorted)
+    {
+      const long t = blockIdx.x * (long) blockDim.x + threadIdx.x;
+      if (t < ntgt) tsorted[t] = tidx[slot[t]];
+    }
+  }    // namespace
+
+  size_t sort_temp_bytes(long ntgt)
+  {
+    size_t bytes = 0;
+    cub::DeviceRadixSort::SortPairs(nullptr, bytes, (const unsigned *) nullptr,
+                                    (unsigned *) nullptr, (const int *) nullptr, (int *) nullptr,
+                                    (int) ntgt, 0, 30);
+    return bytes + 2 * ntgt * sizeof(int);
+  }
+
+  cudaError_t sort_targets(const double *x, const int *tidx, long ntgt, const GravityArgs &a,
+                           unsigned *keys, int *tsorted, int *slot, void *temp, size_t temp_bytes,
+                           cudaStream_t st)
+  {
+    if (ntgt <= 0) return cudaSuccess;
+    const int block = 256;
+    const unsigned grid = (unsigned) ((ntgt + block - 1) / block);
+    // Positions of open (shrink-wrapped or fixed) boxes lie inside the box too.
+    const double3 lo = make_double3(a.lo[0], a.lo[1], a.lo[2]);
+    const double3 inv = make_double3(1.0 / a.prd[0], 1.0 / a.prd[1], 1.0 / a.prd[2]);
+    int *slot_in = (int *) temp;
+    char *cub_temp = (char *) temp + 2 * ntgt * sizeof(int);
+    size_t cub_bytes = temp_bytes - 2 * ntgt * sizeof(int);
+    morton_keys<<<grid, block, 0, st>>>(x, tidx, ntgt, lo, inv, keys, slot_in);
+    cudaError_t err = cudaGetLastError();
+    if (err != cudaSuccess) return err;
+    err = cub::DeviceRadixSort::SortPairs(cub_temp, cub_bytes, keys, keys + ntgt, slot_in, slot,
+                                          (int) ntgt, 0, 30, st);
+    if (err != cudaSuccess) return err;
+    gather_sorted<<<grid, block, 0, st>>>(tidx, slot, ntgt, tsorted);
+    return cudaGetLastError();
+  }
+
   GravityShape choose_shape(Precision p, long ntgt, long nsrc, int num_sms)
   {
+    // Shapes that measured fastest on an H200 (doc/bench_gravity_gpu.md, --shapes sweep).
     GravityShape s;
-    s.block = 128;
-    s.ilp = (p == Precision::Double) ? 1 : 2;
+    if (p == Precision::Double) {
+      s.block = 256;
+      s.ilp = 1;
+    } else if (p == Precision::Mixed) {
+      s.block = (ntgt >= 262144) ? 256 : 128;
+      s.ilp = (ntgt >= 262144) ? 2 : 1;
+    } else {
+      s.block = (ntgt >= 32768) ? 256 : 128;
+      s.ilp = 2;
+    }
     const long per_block = (long) s.block * s.ilp;
     const long groups = std::max(1L, (ntgt + per_block - 1) / per_block);
-    // Aim for about 4 blocks per multiprocessor, but keep at least 8 tiles per split.
-    const long want = std::max(1L, (4L * num_sms + groups - 1) / groups);
-    const long most = std::max(1L, nsrc / (8L * s.block));
+    // Aim for about 8 blocks per multiprocessor, but keep at least 4 tiles per split.
+    const long want = std::max(1L, (8L * num_sms + groups - 1) / groups);
+    const long most = std::max(1L, nsrc / (4L * s.block));
     s.splits = (int) std::min(std::min(want, most), 1024L);
     return s;
   }
@@ -459,7 +534,7 @@ namespace GPU {
   }
 
   cudaError_t pack_sources(Precision p, const double *x, const double *m, long n,
-                           const GravityArgs &a, void *src, void *src_lo, cudaStream_t st)
+                           const GravityArgs &a, void *src, cudaStream_t st)
   {
     if (n <= 0) return cudaSuccess;
     const int block = 256;
@@ -467,17 +542,15 @@ namespace GPU {
     const double3 lo = make_double3(a.lo[0], a.lo[1], a.lo[2]);
     if (p == Precision::Single)
       pack_single<<<grid, block, 0, st>>>(x, m, n, lo, (float4 *) src);
-    else if (p == Precision::Mixed)
-      pack_mixed<<<grid, block, 0, st>>>(x, m, n, lo, (float4 *) src, (float4 *) src_lo);
     else
       pack_double<<<grid, block, 0, st>>>(x, m, n, lo, (Src64 *) src);
     return cudaGetLastError();
   }
 
-  cudaError_t compute_gravity(Precision p, const GravityShape &want, const void *src,
-                              const void *src_lo, long nsrc, const int *tidx, long ntgt,
-                              const double *m, const GravityArgs &a, void *scratch, double *f,
-                              double *e, double *v, cudaStream_t st)
+  cudaError_t compute_gravity(Precision p, const GravityShape &want, const void *src, long nsrc,
+                              const int *tidx, const int *slot, long ntgt, const double *m,
+                              const GravityArgs &a, void *scratch, double *f, double *e,
+                              double *v, cudaStream_t st)
   {
     if (ntgt <= 0) return cudaSuccess;
     const bool hot = !(a.periodic[0] || a.periodic[1] || a.periodic[2]) && !a.energy_virial &&
@@ -485,20 +558,20 @@ namespace GPU {
     const GravityShape s = compiled_shape(p, want, hot);
     cudaError_t err;
     if (p == Precision::Single)
-      err = dispatch_flags<0>(s, src, src_lo, nsrc, tidx, ntgt, a, scratch, st);
+      err = dispatch_flags<0>(s, src, nsrc, tidx, ntgt, a, scratch, st);
     else if (p == Precision::Mixed)
-      err = dispatch_flags<1>(s, src, src_lo, nsrc, tidx, ntgt, a, scratch, st);
+      err = dispatch_flags<1>(s, src, nsrc, tidx, ntgt, a, scratch, st);
     else
-      err = dispatch_flags<2>(s, src, src_lo, nsrc, tidx, ntgt, a, scratch, st);
+      err = dispatch_flags<2>(s, src, nsrc, tidx, ntgt, a, scratch, st);
     if (err != cudaSuccess) return err;
     const int block = 256;
     const unsigned grid = (unsigned) ((ntgt + block - 1) / block);
     if (p == Precision::Single)
-      finalize<float><<<grid, block, 0, st>>>((const float *) scratch, s.splits, ntgt, tidx, m,
-                                              a.G, a.energy_virial, f, e, v);
+      finalize<float><<<grid, block, 0, st>>>((const float *) scratch, s.splits, ntgt, tidx, slot,
+                                              m, a.G, a.energy_virial, f, e, v);
     else
-      finalize<double><<<grid, block, 0, st>>>((const double *) scratch, s.splits, ntgt, tidx, m,
-                                               a.G, a.energy_virial, f, e, v);
+      finalize<double><<<grid, block, 0, st>>>((const double *) scratch, s.splits, ntgt, tidx,
+                                               slot, m, a.G, a.energy_virial, f, e, v);
     return cudaGetLastError();
   }
 

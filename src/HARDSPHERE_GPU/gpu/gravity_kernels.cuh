@@ -8,11 +8,16 @@
      x      3n doubles, positions already mapped into the periodic cell (as on the host)
      m      n doubles, masses (uploaded only when they change)
      src    packed sources in the precision's format (pack_sources fills it):
-              Single: float4 (x - lo, m)            16 B per source
-              Mixed:  float4 hi + float4 lo         32 B per source, x - lo = hi + lo exactly
-                                                      to about 2^-48 relative
-              Double: double4 (x - lo, m)           32 B per source
+              Single: float4 (x - lo, m)                   16 B per source
+              Mixed, Double: 4 doubles (x - lo, m)         32 B per source
      tidx   ntgt ints: the source index of each target (the atoms this rank owns)
+     order  Mixed only: targets in Morton (Z-curve) order of their positions, as the source
+            index (tsorted) and the result slot (slot) of each; sort_targets fills them.
+   Mixed precision: each block takes the position of its first (Morton-sorted) target as its
+   origin O; sources entering shared memory and the block's targets are converted to float as
+   x - O, computed in double.  Nearby pairs then lie near O and keep their digits however
+   large the coordinates; pair arithmetic is fp32 and each tile's fp32 sums are added into
+   fp64 accumulators.
    Results per target (double): force, and with energy/virial requested its half of the pair
    energies and of the pair virial (xx yy zz xy xz yz), the split LAMMPS tallies per atom. */
 #ifndef HSGPU_GPU_GRAVITY_KERNELS_CUH
@@ -35,16 +40,27 @@ namespace GPU {
   /// Bytes of scratch space compute_gravity needs for this shape (split partial sums).
   size_t scratch_bytes(Precision p, const GravityShape &s, long ntgt, bool energy_virial);
 
-  /// Pack positions and masses into src (and src_lo for Mixed, else unused).
+  /// Pack positions and masses into src.
   cudaError_t pack_sources(Precision p, const double *x, const double *m, long n,
-                           const GravityArgs &a, void *src, void *src_lo, cudaStream_t st);
+                           const GravityArgs &a, void *src, cudaStream_t st);
+
+  /// Bytes of temporary storage sort_targets needs for ntgt targets.
+  size_t sort_temp_bytes(long ntgt);
+
+  /// Orders the targets along a Z curve of their positions x: writes the source index
+  /// (tsorted) and the result slot (slot) of each target in that order.  keys: 2*ntgt
+  /// unsigned ints of scratch; temp: sort_temp_bytes(ntgt) bytes.
+  cudaError_t sort_targets(const double *x, const int *tidx, long ntgt, const GravityArgs &a,
+                           unsigned *keys, int *tsorted, int *slot, void *temp, size_t temp_bytes,
+                           cudaStream_t st);
 
   /// All-pairs sum for ntgt targets over nsrc sources, leaving out each target's own index.
-  /// f: 3*ntgt doubles; e: ntgt, v: 6*ntgt doubles (only with a.energy_virial).
-  cudaError_t compute_gravity(Precision p, const GravityShape &s, const void *src,
-                              const void *src_lo, long nsrc, const int *tidx, long ntgt,
-                              const double *m, const GravityArgs &a, void *scratch, double *f,
-                              double *e, double *v, cudaStream_t st);
+  /// tidx: source index of each target; slot: where each target's results go (nullptr: in
+  /// order).  f: 3*ntgt doubles; e: ntgt, v: 6*ntgt doubles (only with a.energy_virial).
+  cudaError_t compute_gravity(Precision p, const GravityShape &s, const void *src, long nsrc,
+                              const int *tidx, const int *slot, long ntgt, const double *m,
+                              const GravityArgs &a, void *scratch, double *f, double *e,
+                              double *v, cudaStream_t st);
 
   /// The plain reference kernel used as the benchmark baseline: one body per thread, 256-body
   /// shared-memory tiles, fp32 with rsqrtf, no periodic images, forces only.

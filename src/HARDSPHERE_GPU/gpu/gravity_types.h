@@ -6,9 +6,10 @@
 namespace HSGPU {
 namespace GPU {
 
-  /// single: fp32 throughout; mixed: fp32 pair arithmetic on positions split into two floats
-  /// (x = hi + lo, so large coordinates lose no digits), fp32 sums over each tile of sources
-  /// added into fp64 accumulators; double: fp64 throughout.
+  /// single: fp32 throughout; mixed: fp32 pair arithmetic on positions taken relative to an
+  /// origin inside each block of spatially sorted targets (computed in fp64, so large
+  /// coordinates lose no digits), fp32 sums over each tile of sources added into fp64
+  /// accumulators; double: fp64 throughout.
   enum class Precision { Single = 0, Mixed = 1, Double = 2 };
 
   /// What one all-pairs evaluation needs besides the data.
