@@ -19,6 +19,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <string>
 
 using namespace LAMMPS_NS;
 
@@ -26,7 +27,7 @@ PairGravity::PairGravity(LAMMPS *lmp) :
     Pair(lmp), gravity_g(0.0), softening_eps(0.0), cutoff(0.0), gather(nullptr), gpu_requested(0),
     precision((int) HSGPU::GPU::Precision::Mixed), device_request(-1), engine(nullptr),
     t_gather(0.0), t_upload(0.0), t_kernel(0.0), t_total(0.0), ncalls(0),
-    timing(std::getenv("HSGPU_TIMING") != nullptr)
+    timing(false)
 {
   single_enable = 0;
   restartinfo = 1;
@@ -35,15 +36,18 @@ PairGravity::PairGravity(LAMMPS *lmp) :
   // Forces come from all atoms, not from ghosts: the f.r virial would be wrong.
   no_virial_fdotr_compute = 1;
   gather = new AtomGather(lmp, "gravity");
+  const char *t = std::getenv("HSGPU_TIMING");
+  timing = t && *t && strcmp(t, "0") != 0;
 }
 
 PairGravity::~PairGravity()
 {
-  if (timing && comm->me == 0 && ncalls > 0 && screen)
-    fprintf(screen,
-            "Pair gravity timing on rank 0 over %ld calls (s/call): total %.4g, gather %.4g, "
-            "device transfers+launch %.4g, kernels %.4g\n",
-            ncalls, t_total / ncalls, t_gather / ncalls, t_upload / ncalls, t_kernel / ncalls);
+  if (timing && comm->me == 0 && ncalls > 0)
+    utils::logmesg(lmp,
+                   "Pair gravity timing on rank 0 over {} calls (s/call): total {:.4g}, gather "
+                   "{:.4g}, device transfers+launch {:.4g}, kernels {:.4g}\n",
+                   ncalls, t_total / ncalls, t_gather / ncalls, t_upload / ncalls,
+                   t_kernel / ncalls);
   delete gather;
   delete engine;
   if (allocated) {
@@ -88,7 +92,13 @@ void PairGravity::settings(int narg, char **arg)
       iarg += 2;
     } else if (strcmp(arg[iarg], "gpu") == 0) {
       if (iarg + 2 > narg) error->all(FLERR, "Illegal pair_style gravity command: gpu needs yes or no");
-      gpu_requested = utils::logical(FLERR, arg[iarg + 1], false, lmp);
+      const std::string v = arg[iarg + 1];
+      if (v == "yes" || v == "on" || v == "true" || v == "1")
+        gpu_requested = 1;
+      else if (v == "no" || v == "off" || v == "false" || v == "0")
+        gpu_requested = 0;
+      else
+        error->all(FLERR, "Illegal pair_style gravity command: gpu must be yes or no, not {}", v);
       iarg += 2;
     } else if (strcmp(arg[iarg], "precision") == 0) {
       if (iarg + 2 > narg)
@@ -105,12 +115,13 @@ void PairGravity::settings(int narg, char **arg)
     } else if (strcmp(arg[iarg], "device") == 0) {
       if (iarg + 2 > narg)
         error->all(FLERR, "Illegal pair_style gravity command: device needs auto or a number");
-      if (strcmp(arg[iarg + 1], "auto") == 0)
+      if (strcmp(arg[iarg + 1], "auto") == 0) {
         device_request = -1;
-      else
+      } else {
         device_request = utils::inumeric(FLERR, arg[iarg + 1], false, lmp);
-      if (device_request < -1)
-        error->all(FLERR, "Illegal pair_style gravity command: device must be auto or >= 0");
+        if (device_request < 0)
+          error->all(FLERR, "Illegal pair_style gravity command: device must be auto or >= 0");
+      }
       iarg += 2;
     } else {
       error->all(FLERR, "Illegal pair_style gravity command: unknown keyword {}", arg[iarg]);
@@ -324,8 +335,13 @@ void PairGravity::read_restart(FILE *fp)
     for (int j = i; j <= n; j++) setflag[i][j] = 1;
 }
 
+// Restart layout version, written first so that a changed layout is recognised.
+static constexpr int RESTART_VERSION = 2;
+
 void PairGravity::write_restart_settings(FILE *fp)
 {
+  const int version = RESTART_VERSION;
+  fwrite(&version, sizeof(int), 1, fp);
   fwrite(&gravity_g, sizeof(double), 1, fp);
   fwrite(&softening_eps, sizeof(double), 1, fp);
   fwrite(&cutoff, sizeof(double), 1, fp);
@@ -336,6 +352,11 @@ void PairGravity::write_restart_settings(FILE *fp)
 void PairGravity::read_restart_settings(FILE *fp)
 {
   if (comm->me == 0) {
+    int version = 0;
+    utils::sfread(FLERR, &version, sizeof(int), 1, fp, nullptr, error);
+    if (version != RESTART_VERSION)
+      error->one(FLERR, "Pair gravity: restart file has settings layout {}, this plugin reads {}",
+                 version, RESTART_VERSION);
     utils::sfread(FLERR, &gravity_g, sizeof(double), 1, fp, nullptr, error);
     utils::sfread(FLERR, &softening_eps, sizeof(double), 1, fp, nullptr, error);
     utils::sfread(FLERR, &cutoff, sizeof(double), 1, fp, nullptr, error);

@@ -6,6 +6,7 @@
 
 #include <cuda_runtime.h>
 
+#include <algorithm>
 #include <cstring>
 #include <vector>
 
@@ -52,6 +53,7 @@ namespace GPU {
     Buffer x, m, src, tidx, scratch, f, e, v;
     Buffer keys, tsorted, slot, sort_temp;    // Mixed: targets in Z-curve order
     long nsrc = 0, ntgt = 0;
+    double max_mass = 0.0;
     std::vector<int> host_tidx;
     float kernel_ms = 0.0f;
   };
@@ -100,10 +102,13 @@ namespace GPU {
     check(cudaMemcpyAsync(impl->x.ptr, x, 3 * n * sizeof(double), cudaMemcpyHostToDevice,
                           impl->stream),
           "cudaMemcpy(positions)");
-    if (grown || masses_changed)
+    if (grown || masses_changed) {
       check(cudaMemcpyAsync(impl->m.ptr, m, n * sizeof(double), cudaMemcpyHostToDevice,
                             impl->stream),
             "cudaMemcpy(masses)");
+      impl->max_mass = 0.0;
+      for (long i = 0; i < n; ++i) impl->max_mass = std::max(impl->max_mass, m[i]);
+    }
     impl->nsrc = n;
   }
 
@@ -130,7 +135,7 @@ namespace GPU {
   {
     check(cudaSetDevice(impl->device), "cudaSetDevice");
     const long n = impl->nsrc, nt = impl->ntgt;
-    if (shape.splits <= 0) shape = choose_shape(p, nt, n, impl->num_sms);
+    if (shape.splits <= 0) shape = choose_shape(p, a, nt, n, impl->num_sms);
     impl->src.reserve(source_bytes(p) * n + 1, "cudaMalloc(sources)");
     impl->scratch.reserve(scratch_bytes(p, shape, nt, a.energy_virial) + 1, "cudaMalloc(scratch)");
     impl->f.reserve(3 * nt * sizeof(double) + 1, "cudaMalloc(forces)");
@@ -141,15 +146,17 @@ namespace GPU {
     check(pack_sources(p, (const double *) impl->x.ptr, (const double *) impl->m.ptr, n, a,
                        impl->src.ptr, impl->stream),
           "pack_sources kernel");
-    check(cudaEventRecord(impl->start, impl->stream), "cudaEventRecord");
-    const int *targets = (const int *) impl->tidx.ptr;
-    const int *slot = nullptr;
-    if (p == Precision::Mixed && nt > 0) {
-      const size_t temp = sort_temp_bytes(nt);
+    const size_t temp = (p == Precision::Mixed && nt > 0) ? sort_temp_bytes(nt) : 0;
+    if (temp > 0) {
       impl->keys.reserve(2 * nt * sizeof(unsigned), "cudaMalloc(sort keys)");
       impl->tsorted.reserve(nt * sizeof(int), "cudaMalloc(sorted targets)");
       impl->slot.reserve(nt * sizeof(int), "cudaMalloc(target slots)");
       impl->sort_temp.reserve(temp, "cudaMalloc(sort space)");
+    }
+    check(cudaEventRecord(impl->start, impl->stream), "cudaEventRecord");
+    const int *targets = (const int *) impl->tidx.ptr;
+    const int *slot = nullptr;
+    if (temp > 0) {
       check(sort_targets((const double *) impl->x.ptr, targets, nt, a, (unsigned *) impl->keys.ptr,
                          (int *) impl->tsorted.ptr, (int *) impl->slot.ptr, impl->sort_temp.ptr,
                          temp, impl->stream),
@@ -158,7 +165,7 @@ namespace GPU {
       slot = (const int *) impl->slot.ptr;
     }
     check(compute_gravity(p, shape, impl->src.ptr, n, targets, slot, nt,
-                          (const double *) impl->m.ptr, a, impl->scratch.ptr,
+                          (const double *) impl->m.ptr, impl->max_mass, a, impl->scratch.ptr,
                           (double *) impl->f.ptr, (double *) impl->e.ptr, (double *) impl->v.ptr,
                           impl->stream),
           "gravity kernel");

@@ -19,6 +19,7 @@
 #include <cub/device/device_radix_sort.cuh>
 
 #include <algorithm>
+#include <cmath>
 
 namespace HSGPU {
 namespace GPU {
@@ -194,7 +195,7 @@ namespace GPU {
     __global__ void __launch_bounds__(BLOCK)
         gravity_tiles(const typename PrecTypes<PREC>::Src *__restrict__ src, long nsrc, long chunk,
                       const int *__restrict__ tidx, long ntgt, KArgs<typename PrecTypes<PREC>::R> k,
-                      typename PrecTypes<PREC>::Part *__restrict__ part)
+                      bool self_test, typename PrecTypes<PREC>::Part *__restrict__ part)
     {
       using R = typename PrecTypes<PREC>::R;
       using Part = typename PrecTypes<PREC>::Part;
@@ -250,8 +251,12 @@ namespace GPU {
         }
         __syncthreads();
         const int count = (int) min((long) BLOCK, jend - base);
+        // A target meets itself at d = 0, which adds exactly zero force when r^2 = eps^2 is a
+        // safe divisor; the host clears self_test then (forces only), else such tiles and the
+        // last, partial one take the tested loop.
         bool checked = (count < BLOCK);
-        for (int q = 0; q < ILP; ++q) checked |= (self[q] >= base && self[q] < base + BLOCK);
+        if (self_test)
+          for (int q = 0; q < ILP; ++q) checked |= (self[q] >= base && self[q] < base + BLOCK);
 
         if (!checked) {
 #pragma unroll 8
@@ -356,7 +361,8 @@ namespace GPU {
 
     template <int PREC, bool PER, bool EV, bool CUT, int BLOCK, int ILP>
     void launch_tiles(const GravityShape &s, const void *src, long nsrc, const int *tidx,
-                      long ntgt, const GravityArgs &a, void *scratch, cudaStream_t st)
+                      long ntgt, const GravityArgs &a, bool self_test, void *scratch,
+                      cudaStream_t st)
     {
       using T = PrecTypes<PREC>;
       const long groups = (ntgt + (long) BLOCK * ILP - 1) / ((long) BLOCK * ILP);
@@ -364,7 +370,7 @@ namespace GPU {
       dim3 grid((unsigned) groups, (unsigned) s.splits);
       gravity_tiles<PREC, PER, EV, CUT, BLOCK, ILP><<<grid, BLOCK, 0, st>>>(
           (const typename T::Src *) src, nsrc, chunk, tidx, ntgt,
-          make_kargs<typename T::R>(a), (typename T::Part *) scratch);
+          make_kargs<typename T::R>(a), self_test, (typename T::Part *) scratch);
     }
 
     // Picks the compiled (BLOCK, ILP) variant.  The force-only open-box kernel, the hot path
@@ -372,36 +378,36 @@ namespace GPU {
     // Mixed) or 256 x 1 (Double), the fastest shapes measured on an H200.
     template <int PREC, bool PER, bool EV, bool CUT>
     cudaError_t dispatch_shape(const GravityShape &s, const void *src, long nsrc,
-                               const int *tidx, long ntgt, const GravityArgs &a, void *scratch,
-                               cudaStream_t st)
+                               const int *tidx, long ntgt, const GravityArgs &a, bool self_test,
+                               void *scratch, cudaStream_t st)
     {
       constexpr bool HOT = !PER && !EV && !CUT;
       if (HOT && s.block == 256 && s.ilp == 1)
-        launch_tiles<PREC, PER, EV, CUT, 256, 1>(s, src, nsrc, tidx, ntgt, a, scratch, st);
+        launch_tiles<PREC, PER, EV, CUT, 256, 1>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
       else if (HOT && s.block == 128 && s.ilp == 1)
-        launch_tiles<PREC, PER, EV, CUT, 128, 1>(s, src, nsrc, tidx, ntgt, a, scratch, st);
+        launch_tiles<PREC, PER, EV, CUT, 128, 1>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
       else if (HOT && s.block == 128 && s.ilp == 4)
-        launch_tiles<PREC, PER, EV, CUT, 128, 4>(s, src, nsrc, tidx, ntgt, a, scratch, st);
+        launch_tiles<PREC, PER, EV, CUT, 128, 4>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
       else if (HOT && s.block == 128 && s.ilp == 2)
-        launch_tiles<PREC, PER, EV, CUT, 128, 2>(s, src, nsrc, tidx, ntgt, a, scratch, st);
+        launch_tiles<PREC, PER, EV, CUT, 128, 2>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
       else if (PREC == 2)
-        launch_tiles<PREC, PER, EV, CUT, 256, 1>(s, src, nsrc, tidx, ntgt, a, scratch, st);
+        launch_tiles<PREC, PER, EV, CUT, 256, 1>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
       else
-        launch_tiles<PREC, PER, EV, CUT, 256, 2>(s, src, nsrc, tidx, ntgt, a, scratch, st);
+        launch_tiles<PREC, PER, EV, CUT, 256, 2>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
       return cudaGetLastError();
     }
 
     template <int PREC>
     cudaError_t dispatch_flags(const GravityShape &s, const void *src, long nsrc,
-                               const int *tidx, long ntgt, const GravityArgs &a, void *scratch,
-                               cudaStream_t st)
+                               const int *tidx, long ntgt, const GravityArgs &a, bool self_test,
+                               void *scratch, cudaStream_t st)
     {
       const bool per = a.periodic[0] || a.periodic[1] || a.periodic[2];
       const bool ev = a.energy_virial;
       const bool cut = a.cutsq > 0.0;
 #define HSGPU_CASE(P, E, C)                                                                        \
   if (per == P && ev == E && cut == C)                                                             \
-    return dispatch_shape<PREC, P, E, C>(s, src, nsrc, tidx, ntgt, a, scratch, st);
+    return dispatch_shape<PREC, P, E, C>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
       HSGPU_CASE(false, false, false)
       HSGPU_CASE(false, false, true)
       HSGPU_CASE(false, true, false)
@@ -504,8 +510,10 @@ namespace GPU {
     return cudaGetLastError();
   }
 
-  GravityShape choose_shape(Precision p, long ntgt, long nsrc, int num_sms)
+  GravityShape choose_shape(Precision p, const GravityArgs &a, long ntgt, long nsrc, int num_sms)
   {
+    const bool hot = !(a.periodic[0] || a.periodic[1] || a.periodic[2]) && !a.energy_virial &&
+        !(a.cutsq > 0.0);
     // Shapes that measured fastest on an H200 (doc/bench_gravity_gpu.md, --shapes sweep).
     GravityShape s;
     if (p == Precision::Double) {
@@ -518,10 +526,11 @@ namespace GPU {
       s.block = (ntgt >= 32768) ? 256 : 128;
       s.ilp = 2;
     }
+    s = compiled_shape(p, s, hot);
     const long per_block = (long) s.block * s.ilp;
     const long groups = std::max(1L, (ntgt + per_block - 1) / per_block);
-    // Aim for about 8 blocks per multiprocessor, but keep at least 4 tiles per split.
-    const long want = std::max(1L, (8L * num_sms + groups - 1) / groups);
+    // Aim for about 16 blocks per multiprocessor, but keep at least 4 tiles per split.
+    const long want = std::max(1L, (16L * num_sms + groups - 1) / groups);
     const long most = std::max(1L, nsrc / (4L * s.block));
     s.splits = (int) std::min(std::min(want, most), 1024L);
     return s;
@@ -549,20 +558,25 @@ namespace GPU {
 
   cudaError_t compute_gravity(Precision p, const GravityShape &want, const void *src, long nsrc,
                               const int *tidx, const int *slot, long ntgt, const double *m,
-                              const GravityArgs &a, void *scratch, double *f, double *e,
-                              double *v, cudaStream_t st)
+                              double max_mass, const GravityArgs &a, void *scratch, double *f,
+                              double *e, double *v, cudaStream_t st)
   {
+    // The self pair adds exactly zero force when m / eps^3 is finite in the pair arithmetic.
+    const double eps3 = a.eps2 * std::sqrt(a.eps2);
+    const double limit = (p == Precision::Double) ? 1e300 : 1e30;
+    const bool self_safe = !a.energy_virial && a.eps2 > 1e-30 && max_mass < limit * eps3;
+    const bool self_test = !self_safe;
     if (ntgt <= 0) return cudaSuccess;
     const bool hot = !(a.periodic[0] || a.periodic[1] || a.periodic[2]) && !a.energy_virial &&
         !(a.cutsq > 0.0);
     const GravityShape s = compiled_shape(p, want, hot);
     cudaError_t err;
     if (p == Precision::Single)
-      err = dispatch_flags<0>(s, src, nsrc, tidx, ntgt, a, scratch, st);
+      err = dispatch_flags<0>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
     else if (p == Precision::Mixed)
-      err = dispatch_flags<1>(s, src, nsrc, tidx, ntgt, a, scratch, st);
+      err = dispatch_flags<1>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
     else
-      err = dispatch_flags<2>(s, src, nsrc, tidx, ntgt, a, scratch, st);
+      err = dispatch_flags<2>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
     if (err != cudaSuccess) return err;
     const int block = 256;
     const unsigned grid = (unsigned) ((ntgt + block - 1) / block);

@@ -34,8 +34,9 @@ namespace GPU {
   /// Bytes of packed sources per source for a precision.
   size_t source_bytes(Precision p);
 
-  /// Launch shape that keeps all multiprocessors busy for ntgt targets and nsrc sources.
-  GravityShape choose_shape(Precision p, long ntgt, long nsrc, int num_sms);
+  /// Launch shape (one that is compiled for these flags) that keeps all multiprocessors busy
+  /// for ntgt targets and nsrc sources.
+  GravityShape choose_shape(Precision p, const GravityArgs &a, long ntgt, long nsrc, int num_sms);
 
   /// Bytes of scratch space compute_gravity needs for this shape (split partial sums).
   size_t scratch_bytes(Precision p, const GravityShape &s, long ntgt, bool energy_virial);
@@ -57,10 +58,11 @@ namespace GPU {
   /// All-pairs sum for ntgt targets over nsrc sources, leaving out each target's own index.
   /// tidx: source index of each target; slot: where each target's results go (nullptr: in
   /// order).  f: 3*ntgt doubles; e: ntgt, v: 6*ntgt doubles (only with a.energy_virial).
+  /// max_mass: the largest source mass (decides whether the self pair needs a test).
   cudaError_t compute_gravity(Precision p, const GravityShape &s, const void *src, long nsrc,
                               const int *tidx, const int *slot, long ntgt, const double *m,
-                              const GravityArgs &a, void *scratch, double *f, double *e,
-                              double *v, cudaStream_t st);
+                              double max_mass, const GravityArgs &a, void *scratch, double *f,
+                              double *e, double *v, cudaStream_t st);
 
   /// The plain reference kernel used as the benchmark baseline: one body per thread, 256-body
   /// shared-memory tiles, fp32 with rsqrtf, no periodic images, forces only.
