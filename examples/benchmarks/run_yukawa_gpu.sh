@@ -1,17 +1,19 @@
 #!/usr/bin/env bash
 # Times pair yukawa/gpu (kappa 0, all pairs in the neighbor list) as LAMMPS reports it.
-#   run_yukawa_gpu.sh <lmp built with the GPU package> "<N...>" [steps]
+#   run_yukawa_gpu.sh <lmp built with the GPU package> "<N...>" [steps] ["package gpu options"]
 # Prints: N, ms/step, Pair time per step, interactions/s (N (N-1) / Pair time per step; with
 # newton off every pair is computed once for each of its atoms), and the device memory in use
 # as nvidia-smi reports it during the run.  Stops at the first N that fails.
 set -uo pipefail
-lmp=$1 sizes=($2) steps=${3:-20}
+lmp=$1 sizes=($2) steps=${3:-20} pk=${4:-}
 here=$(cd "$(dirname "$0")" && pwd)
+echo "package gpu 1 ${pk:-(defaults)}"
+echo
 echo "| N | ms/step | Pair ms/step | interactions/s | GPU memory (MiB) |"
 echo "|---|---|---|---|---|"
 for n in "${sizes[@]}"; do
   log=$(mktemp)
-  ( "$lmp" -sf gpu -pk gpu 1 -in "$here/in.yukawa_allpairs" -log none -var N "$n" -var steps "$steps" >"$log" 2>&1 ) &
+  ( "$lmp" -sf gpu -pk gpu 1 $pk -in "$here/in.yukawa_allpairs" -log none -var N "$n" -var steps "$steps" >"$log" 2>&1 ) &
   pid=$!
   mem=0
   while kill -0 $pid 2>/dev/null; do

@@ -1,0 +1,141 @@
+/* HARDSPHERE_GPU physics core: carrying out one event of a step on the bodies' paths.
+
+   Pair collision at time t (found on the drift lines): the normal is the line of centres and
+   the impulse is impulse.h's for the true normal relative velocity at t,
+   vn = (vh_i - vh_j).n + (a_i - a_j).n (t - dt/2), which makes the outcome second-order
+   accurate in dt when the accelerations differ (with the drift velocity it would be first
+   order); it is never less than the impulse that stops the approach of the drift lines, so
+   that the pair cannot overlap at the end of the step.  Under a uniform field a_i = a_j and
+   both are the textbook impulse of the drift (= true) relative velocity.  Both bodies restart
+   their drift lines at t.
+
+   Wall collision at time t (on the parabola): the true velocity u = vh + a (t - dt/2) has its
+   normal component reflected with restitution e, then vh' = u' - a (t - dt/2) and the drift line
+   is restarted so that the position stays continuous (the bow is the same before and after).
+
+   Resting contact: a body pressed onto a wall by its acceleration whose rebound would bring it
+   back within tc (2 u_n' / |a_n| < tc, including u_n' = 0) does not rebound; it leaves with the
+   normal speed |a_n| (dt - t) / 2 instead, which brings it back to the contact point exactly at
+   the end of the step, and that wall is not tested again for it until its next pair
+   collision.  A body sitting on a floor thus stays at the contact height, with a kinetic
+   energy of order m (a dt)^2 / 8, instead of needing infinitely many ever smaller bounces.
+   The kinetic energy this changes is counted like a collision's (it can add a little).
+
+   Nothing here depends on LAMMPS, MPI or CUDA. */
+#ifndef HSGPU_CORE_COLLISION_STEP_H
+#define HSGPU_CORE_COLLISION_STEP_H
+
+#include "impulse.h"
+#include "trajectory.h"
+
+#include <cmath>
+
+namespace HSGPU {
+namespace Collide {
+
+  /// Pair collision of bodies i and j (edge e) at time t.
+  inline void process_pair(Body &bi, Body &bj, const Edge &e, double t, const Params &p,
+                           Tally &tally)
+  {
+    double pi[3], pj[3], r[3];
+    drift_position(bi, t, pi);
+    drift_position(bj, t, pj);
+    note_excursion(bi, pi);
+    note_excursion(bj, pj);
+    for (int d = 0; d < 3; ++d) r[d] = pi[d] - pj[d] - e.shift[d];
+    const double rr = std::sqrt(Contact::dot3(r, r));
+    double n[3] = {1.0, 0.0, 0.0};
+    if (rr > 0.0)
+      for (int d = 0; d < 3; ++d) n[d] = r[d] / rr;
+    double vn = 0.0, an = 0.0;    // drift normal relative velocity, relative acceleration
+    for (int d = 0; d < 3; ++d) {
+      vn += (bi.v[d] - bj.v[d]) * n[d];
+      an += (bi.a[d] - bj.a[d]) * n[d];
+    }
+
+    for (int d = 0; d < 3; ++d) {
+      bi.x[d] = pi[d];
+      bj.x[d] = pj[d];
+      bi.rest[d] = bj.rest[d] = -1;
+    }
+    bi.tref = bj.tref = t;
+    bi.last = bj.id;
+    bj.last = bi.id;
+    bi.nevents++;
+    bj.nevents++;
+    tally.events++;
+    if (!(vn < 0.0)) return;    // round-off left the pair not approaching: nothing to do
+
+    const double ut = vn + an * (t - 0.5 * p.dt);    // true normal relative velocity
+    const double e0 = p.epair[bi.type * (p.ntypes + 1) + bj.type];
+    const double e1 =
+        Impulse::effective_restitution(e0, t - bi.tlast, t - bj.tlast, p.tc, ut, p.vmin);
+    const double meff = Impulse::reduced_mass(bi.mass, bj.mass);
+    double J = Impulse::pair_impulse(ut, meff, e1);
+    const double Jstop = -meff * vn;    // stops the approach of the drift lines
+    if (J < Jstop) J = Jstop;
+    Impulse::apply_pair_impulse(bi.v, bj.v, n, J, bi.mass, bj.mass);
+    tally.ke_lost -= Impulse::energy_change(J, ut, meff);
+    const double dp[3] = {J * n[0], J * n[1], J * n[2]};
+    tally.virial[0] += r[0] * dp[0];
+    tally.virial[1] += r[1] * dp[1];
+    tally.virial[2] += r[2] * dp[2];
+    tally.virial[3] += r[0] * dp[1];
+    tally.virial[4] += r[0] * dp[2];
+    tally.virial[5] += r[1] * dp[2];
+    tally.pair++;
+    bi.tlast = bj.tlast = t;
+  }
+
+  /// Collision of body b with wall face f at time t.
+  inline void process_wall(Body &b, int f, double t, const Params &p, Tally &tally)
+  {
+    const int d = face_dim(f);
+    const double s = face_sign(f);
+    double x[3];
+    drift_position(b, t, x);
+    note_excursion(b, x);
+    const double bw = bow(b, d, t, p.dt);
+    const double P = x[d] + bw;    // true position normal to the wall
+    const double u = b.v[d] + b.a[d] * (t - 0.5 * p.dt);
+    // The event was found with the body approaching; recomputed here at t, round-off can
+    // leave a tiny outward speed: treat that as a contact at zero speed (which rests it)
+    // rather than as no event, which would be found again at once.
+    const double un = std::fmin(s * u, 0.0);
+    for (int k = 0; k < 3; ++k) b.x[k] = x[k];
+    b.tref = t;
+    b.last = 0;
+    b.nevents++;
+    tally.events++;
+
+    const double e1 =
+        Impulse::effective_restitution(p.walls.e[f], t - b.tlast, t - b.tlast, p.tc, un, p.vmin);
+    double un_out = -e1 * un;
+    const double an = s * b.a[d];
+    if (an < 0.0 && (un_out == 0.0 || 2.0 * un_out < -an * p.tc)) {
+      // Resting: a hop that lands on the contact point exactly at the end of the step.
+      un_out = -0.5 * an * (p.dt - t);
+      b.rest[d] = f;
+      tally.rest++;
+    }
+    const double unew = s * un_out;
+    b.v[d] = unew - b.a[d] * (t - 0.5 * p.dt);
+    tally.ke_lost += 0.5 * b.mass * (un * un - un_out * un_out);
+    tally.virial[d] += b.mass * (unew - s * un) * (P - p.walls.pos[f]);
+    tally.wall++;
+    b.tlast = t;
+  }
+
+  /// Position at the end of the step and the half-step velocity to hand back to the
+  /// integrator (its second half kick completes the true velocity of the path).
+  HSGPU_HD void end_of_step(Body &b, double dt, double *x, double *vhalf)
+  {
+    drift_position(b, dt, x);
+    note_excursion(b, x);
+    for (int d = 0; d < 3; ++d) vhalf[d] = b.v[d];
+  }
+
+}    // namespace Collide
+}    // namespace HSGPU
+
+#endif

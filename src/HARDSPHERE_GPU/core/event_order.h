@@ -1,0 +1,270 @@
+/* HARDSPHERE_GPU physics core: the order in which the events of a step are carried out.
+
+   Both orders process events in time order, ties broken by the bodies' IDs (pair: lower ID,
+   higher ID; wall: ID, then the face, walls before pairs), and compute every event time from
+   the two bodies' states only (trajectory.h).  So within a set of bodies that interact only
+   among themselves the sequence of events, and the arithmetic, are the same in both orders:
+
+   - serial: the seed paper's loop.  Each body keeps its earliest candidate event; every
+     iteration scans all bodies for the globally earliest one, carries it out and recomputes
+     the candidates of the bodies involved and of their neighbours: O(N) per event.
+   - components: the edges (pairs that can touch within the step) split the bodies into
+     connected components that cannot influence each other within the step; each component is
+     resolved by itself with its own event queue: O((N + events) log) per step.
+
+   Host code (uses the standard library).  Nothing here depends on LAMMPS, MPI or CUDA. */
+#ifndef HSGPU_CORE_EVENT_ORDER_H
+#define HSGPU_CORE_EVENT_ORDER_H
+
+#include "collision_step.h"
+#include "trajectory.h"
+
+#include <algorithm>
+#include <vector>
+
+namespace HSGPU {
+namespace Collide {
+
+  /// A candidate event.  face >= 0: wall event of body `index`; face < 0: pair event of edge
+  /// `index`.  (k1, k2) is the tie-break key; s1, s2 the bodies' version stamps.
+  struct Event {
+    double t;
+    long k1, k2;
+    int index;
+    int face;
+    int s1, s2;
+  };
+
+  inline bool earlier(const Event &a, const Event &b)
+  {
+    if (a.t != b.t) return a.t < b.t;
+    if (a.k1 != b.k1) return a.k1 < b.k1;
+    return a.k2 < b.k2;
+  }
+
+  /// Disjoint sets with path halving; the representative is the smallest index of a set.
+  struct UnionFind {
+    std::vector<int> parent;
+    void reset(int n)
+    {
+      parent.resize(n);
+      for (int i = 0; i < n; ++i) parent[i] = i;
+    }
+    int find(int i)
+    {
+      while (parent[i] != i) {
+        parent[i] = parent[parent[i]];
+        i = parent[i];
+      }
+      return i;
+    }
+    void unite(int a, int b)
+    {
+      a = find(a);
+      b = find(b);
+      if (a == b) return;
+      if (a < b)
+        parent[b] = a;
+      else
+        parent[a] = b;
+    }
+  };
+
+  class Resolver {
+   public:
+    /// Resolves the step for all bodies, component by component.
+    void resolve_components(std::vector<Body> &bodies, const std::vector<Edge> &edges,
+                            const Params &p, Tally &tally)
+    {
+      const int n = (int) bodies.size();
+      build_adjacency(n, edges);
+      uf.reset(n);
+      for (const Edge &e : edges) uf.unite(e.i, e.j);
+      // Bodies grouped by component (counting sort on the representative).
+      comp_start.assign(n + 1, 0);
+      for (int b = 0; b < n; ++b) comp_start[uf.find(b) + 1]++;
+      for (int b = 0; b < n; ++b) comp_start[b + 1] += comp_start[b];
+      comp_members.resize(n);
+      fill.assign(comp_start.begin(), comp_start.end() - 1);
+      for (int b = 0; b < n; ++b) comp_members[fill[uf.find(b)]++] = b;
+      for (int c = 0; c < n && !tally.capped; ++c) {
+        const int lo = comp_start[c], hi = comp_start[c + 1];
+        if (hi > lo) resolve_one(bodies, edges, p, tally, lo, hi);
+      }
+    }
+
+    /// Resolves the step for all bodies with the seed paper's global loop.
+    void resolve_serial(std::vector<Body> &bodies, const std::vector<Edge> &edges, const Params &p,
+                        Tally &tally)
+    {
+      const int n = (int) bodies.size();
+      build_adjacency(n, edges);
+      best.resize(n);
+      for (int b = 0; b < n; ++b) best[b] = best_event(bodies, edges, p, b);
+      while (true) {
+        int arg = -1;
+        for (int b = 0; b < n; ++b)
+          if (best[b].t != Contact::never() && (arg < 0 || earlier(best[b], best[arg]))) arg = b;
+        if (arg < 0) break;
+        if (tally.events >= p.maxevents) {
+          tally.capped = 1;
+          break;
+        }
+        const Event ev = best[arg];
+        touched.clear();
+        carry_out(bodies, edges, p, tally, ev);
+        if (ev.face >= 0) {
+          touched.push_back(ev.index);
+        } else {
+          touched.push_back(edges[ev.index].i);
+          touched.push_back(edges[ev.index].j);
+        }
+        const size_t ntouched = touched.size();
+        for (size_t k = 0; k < ntouched; ++k) {
+          const int b = touched[k];
+          for (int q = adj_start[b]; q < adj_start[b + 1]; ++q) {
+            const Edge &e = edges[adj[q]];
+            touched.push_back(e.i == b ? e.j : e.i);
+          }
+        }
+        for (int b : touched) best[b] = best_event(bodies, edges, p, b);
+      }
+    }
+
+    /// Largest number of events one component needed in the last resolve_components().
+    long max_component_events = 0;
+
+   private:
+    std::vector<int> adj_start, adj, comp_start, comp_members, fill, touched;
+    std::vector<Event> heap, best;
+    UnionFind uf;
+
+    void build_adjacency(int n, const std::vector<Edge> &edges)
+    {
+      adj_start.assign(n + 1, 0);
+      for (const Edge &e : edges) {
+        adj_start[e.i + 1]++;
+        adj_start[e.j + 1]++;
+      }
+      for (int b = 0; b < n; ++b) adj_start[b + 1] += adj_start[b];
+      adj.resize(adj_start[n]);
+      fill.assign(adj_start.begin(), adj_start.end() - 1);
+      for (int q = 0; q < (int) edges.size(); ++q) {
+        adj[fill[edges[q].i]++] = q;
+        adj[fill[edges[q].j]++] = q;
+      }
+    }
+
+    static Event wall_event(const std::vector<Body> &bodies, const Params &p, int b)
+    {
+      Event ev;
+      int face = -1;
+      ev.t = wall_event_time(bodies[b], p.walls, p.dt, face);
+      ev.k1 = bodies[b].id;
+      ev.k2 = -1 - face;
+      ev.index = b;
+      ev.face = face;
+      ev.s1 = ev.s2 = bodies[b].nevents;
+      return ev;
+    }
+
+    static Event pair_event(const std::vector<Body> &bodies, const std::vector<Edge> &edges,
+                            const Params &p, int q)
+    {
+      const Edge &e = edges[q];
+      const Body &bi = bodies[e.i], &bj = bodies[e.j];
+      Event ev;
+      ev.t = pair_event_time(bi, bj, e, p.dt);
+      ev.k1 = bi.id;
+      ev.k2 = bj.id;
+      ev.index = q;
+      ev.face = -1;
+      ev.s1 = bi.nevents;
+      ev.s2 = bj.nevents;
+      return ev;
+    }
+
+    Event best_event(const std::vector<Body> &bodies, const std::vector<Edge> &edges,
+                     const Params &p, int b) const
+    {
+      Event e = wall_event(bodies, p, b);
+      for (int q = adj_start[b]; q < adj_start[b + 1]; ++q) {
+        const Event c = pair_event(bodies, edges, p, adj[q]);
+        if (c.t != Contact::never() && (e.t == Contact::never() || earlier(c, e))) e = c;
+      }
+      return e;
+    }
+
+    static bool is_current(const std::vector<Body> &bodies, const std::vector<Edge> &edges,
+                           const Event &ev)
+    {
+      if (ev.face >= 0) return bodies[ev.index].nevents == ev.s1;
+      const Edge &e = edges[ev.index];
+      return bodies[e.i].nevents == ev.s1 && bodies[e.j].nevents == ev.s2;
+    }
+
+    static void carry_out(std::vector<Body> &bodies, const std::vector<Edge> &edges,
+                          const Params &p, Tally &tally, const Event &ev)
+    {
+      if (ev.face >= 0) {
+        process_wall(bodies[ev.index], ev.face, ev.t, p, tally);
+      } else {
+        const Edge &e = edges[ev.index];
+        process_pair(bodies[e.i], bodies[e.j], e, ev.t, p, tally);
+      }
+    }
+
+    static bool later(const Event &a, const Event &b) { return earlier(b, a); }
+
+    void push(const Event &ev)
+    {
+      if (ev.t == Contact::never()) return;
+      heap.push_back(ev);
+      std::push_heap(heap.begin(), heap.end(), later);
+    }
+
+    void push_body(const std::vector<Body> &bodies, const std::vector<Edge> &edges, const Params &p,
+                   int b)
+    {
+      push(wall_event(bodies, p, b));
+      for (int q = adj_start[b]; q < adj_start[b + 1]; ++q)
+        push(pair_event(bodies, edges, p, adj[q]));
+    }
+
+    void resolve_one(std::vector<Body> &bodies, const std::vector<Edge> &edges, const Params &p,
+                     Tally &tally, int lo, int hi)
+    {
+      heap.clear();
+      for (int k = lo; k < hi; ++k) {
+        const int b = comp_members[k];
+        push(wall_event(bodies, p, b));
+        for (int q = adj_start[b]; q < adj_start[b + 1]; ++q)
+          if (edges[adj[q]].i == b) push(pair_event(bodies, edges, p, adj[q]));
+      }
+      long count = 0;
+      while (!heap.empty()) {
+        std::pop_heap(heap.begin(), heap.end(), later);
+        const Event ev = heap.back();
+        heap.pop_back();
+        if (!is_current(bodies, edges, ev)) continue;
+        if (tally.events >= p.maxevents) {
+          tally.capped = 1;
+          break;
+        }
+        carry_out(bodies, edges, p, tally, ev);
+        ++count;
+        if (ev.face >= 0) {
+          push_body(bodies, edges, p, ev.index);
+        } else {
+          push_body(bodies, edges, p, edges[ev.index].i);
+          push_body(bodies, edges, p, edges[ev.index].j);
+        }
+      }
+      if (count > max_component_events) max_component_events = count;
+    }
+  };
+
+}    // namespace Collide
+}    // namespace HSGPU
+
+#endif

@@ -1,0 +1,407 @@
+/* ----------------------------------------------------------------------------------
+   HARDSPHERE_GPU: fix hardsphere, see fix_hardsphere.h and doc/fix_hardsphere.md.
+
+   This file: the command's arguments, the checks, per-atom state and its migration and
+   restart, forward communication, output.  fix_hardsphere_step.cpp: the step itself.
+------------------------------------------------------------------------------------- */
+
+#include "fix_hardsphere.h"
+
+#include "atom.h"
+#include "comm.h"
+#include "domain.h"
+#include "error.h"
+#include "force.h"
+#include "memory.h"
+#include "neighbor.h"
+#include "pair.h"
+#include "update.h"
+#include "utils.h"
+
+#include "lmp_compat.h"
+
+#include <cmath>
+#include <cstring>
+
+using namespace LAMMPS_NS;
+using namespace FixConst;
+
+namespace {
+
+constexpr double NEVER_COLLIDED = -1.0e30;    // tlast of an atom that never collided
+const char *const FACES[HSGPU::Collide::NFACES] = {"xlo", "xhi", "ylo", "yhi", "zlo", "zhi"};
+constexpr int NVECTOR = 6;
+
+double restitution_arg(const char *arg, LAMMPS *lmp)
+{
+  const double e = utils::numeric(FLERR, arg, false, lmp);
+  if (e < 0.0 || e > 1.0)
+    lmp->error->all(FLERR, "Fix hardsphere: restitution must be between 0 and 1, got {}", arg);
+  return e;
+}
+
+}    // namespace
+
+FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
+    Fix(lmp, narg, arg), serial_order(0), tc_user(-1.0), vmin(0.0), maxevents_user(-1),
+    maxevents_warn(0), overlap_push(0), reach_user(-1.0), rmax(0.0), reach(0.0), list_cut(0.0),
+    maxevents(0), list(nullptr), tlast(nullptr), n_step(0.0), n_total(0.0), n_wall(0.0),
+    ke_total(0.0), max_events(0.0), events_total(0.0), n_redo(0.0), n_push(0.0)
+{
+  for (double &o : ovl) o = 0.0;
+  vector_flag = 1;
+  size_vector = NVECTOR;
+  global_freq = 1;
+  extvector = -1;
+  extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1};
+  virial_global_flag = 1;
+  thermo_virial = 1;
+  restart_global = 1;
+  restart_peratom = 1;
+  create_attribute = 1;
+  comm_forward = NFWD;
+  dynamic_group_allow = 0;
+
+  if (!atom->radius_flag || !atom->rmass_flag)
+    error->all(FLERR, "Fix hardsphere requires atom style sphere (per-atom radius and rmass)");
+  if (!atom->tag_enable) error->all(FLERR, "Fix hardsphere requires atom IDs");
+
+  parse(narg, arg);
+
+  grow_arrays(atom->nmax);
+  atom->add_callback(Atom::GROW);
+  atom->add_callback(Atom::RESTART);
+  for (int i = 0; i < atom->nlocal; ++i) tlast[i] = NEVER_COLLIDED;
+}
+
+FixHardSphere::~FixHardSphere()
+{
+  if (copymode) return;
+  atom->delete_callback(id, Atom::GROW);
+  atom->delete_callback(id, Atom::RESTART);
+  memory->destroy(tlast);
+  delete[] extlist;
+}
+
+/* fix ID group hardsphere [restitution e] [restitution/pair I J e] [wall face e] ...
+   [order parallel|serial] [tc t|auto] [vmin v] [maxevents N error|warn]
+   [overlap error|push] [reach d] */
+void FixHardSphere::parse(int narg, char **arg)
+{
+  const int ntypes = atom->ntypes;
+  double eglobal = 1.0;
+  struct PairE {
+    int ilo, ihi, jlo, jhi;
+    double e;
+  };
+  std::vector<PairE> pairs;
+  for (int f = 0; f < HSGPU::Collide::NFACES; ++f) {
+    walls.on[f] = 0;
+    walls.pos[f] = 0.0;
+    walls.e[f] = 1.0;
+  }
+
+  int iarg = 3;
+  auto need = [&](int n, const char *kw) {
+    if (iarg + n >= narg) error->all(FLERR, "Fix hardsphere: keyword {} needs {} value(s)", kw, n);
+  };
+  while (iarg < narg) {
+    const char *kw = arg[iarg];
+    if (strcmp(kw, "restitution") == 0) {
+      need(1, kw);
+      eglobal = restitution_arg(arg[iarg + 1], lmp);
+      iarg += 2;
+    } else if (strcmp(kw, "restitution/pair") == 0) {
+      need(3, kw);
+      PairE p;
+      utils::bounds(FLERR, arg[iarg + 1], 1, ntypes, p.ilo, p.ihi, error);
+      utils::bounds(FLERR, arg[iarg + 2], 1, ntypes, p.jlo, p.jhi, error);
+      p.e = restitution_arg(arg[iarg + 3], lmp);
+      pairs.push_back(p);
+      iarg += 4;
+    } else if (strcmp(kw, "wall") == 0) {
+      need(2, kw);
+      int face = -1;
+      for (int f = 0; f < HSGPU::Collide::NFACES; ++f)
+        if (strcmp(arg[iarg + 1], FACES[f]) == 0) face = f;
+      if (face < 0)
+        error->all(FLERR, "Fix hardsphere: unknown wall face {} (use xlo xhi ylo yhi zlo zhi)",
+                   arg[iarg + 1]);
+      walls.on[face] = 1;
+      walls.e[face] = restitution_arg(arg[iarg + 2], lmp);
+      iarg += 3;
+    } else if (strcmp(kw, "order") == 0) {
+      need(1, kw);
+      if (strcmp(arg[iarg + 1], "parallel") == 0)
+        serial_order = 0;
+      else if (strcmp(arg[iarg + 1], "serial") == 0)
+        serial_order = 1;
+      else
+        error->all(FLERR, "Fix hardsphere: order must be parallel or serial, got {}",
+                   arg[iarg + 1]);
+      iarg += 2;
+    } else if (strcmp(kw, "tc") == 0) {
+      need(1, kw);
+      if (strcmp(arg[iarg + 1], "auto") == 0) {
+        tc_user = -1.0;
+      } else {
+        tc_user = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+        if (tc_user < 0.0) error->all(FLERR, "Fix hardsphere: tc must be >= 0 or auto");
+      }
+      iarg += 2;
+    } else if (strcmp(kw, "vmin") == 0) {
+      need(1, kw);
+      vmin = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+      if (vmin < 0.0) error->all(FLERR, "Fix hardsphere: vmin must be >= 0");
+      iarg += 2;
+    } else if (strcmp(kw, "maxevents") == 0) {
+      need(2, kw);
+      maxevents_user = utils::bnumeric(FLERR, arg[iarg + 1], false, lmp);
+      if (maxevents_user < 1) error->all(FLERR, "Fix hardsphere: maxevents must be >= 1");
+      if (strcmp(arg[iarg + 2], "error") == 0)
+        maxevents_warn = 0;
+      else if (strcmp(arg[iarg + 2], "warn") == 0)
+        maxevents_warn = 1;
+      else
+        error->all(FLERR, "Fix hardsphere: maxevents takes N error|warn, got {}", arg[iarg + 2]);
+      iarg += 3;
+    } else if (strcmp(kw, "overlap") == 0) {
+      need(1, kw);
+      if (strcmp(arg[iarg + 1], "error") == 0)
+        overlap_push = 0;
+      else if (strcmp(arg[iarg + 1], "push") == 0)
+        overlap_push = 1;
+      else
+        error->all(FLERR, "Fix hardsphere: overlap must be error or push, got {}", arg[iarg + 1]);
+      iarg += 2;
+    } else if (strcmp(kw, "reach") == 0) {
+      need(1, kw);
+      reach_user = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+      if (reach_user <= 0.0) error->all(FLERR, "Fix hardsphere: reach must be > 0");
+      iarg += 2;
+    } else {
+      error->all(FLERR, "Fix hardsphere: unknown keyword {}", kw);
+    }
+  }
+
+  epair.assign((size_t) (ntypes + 1) * (ntypes + 1), eglobal);
+  for (const PairE &p : pairs)
+    for (int i = p.ilo; i <= p.ihi; ++i)
+      for (int j = p.jlo; j <= p.jhi; ++j) {
+        epair[(size_t) i * (ntypes + 1) + j] = p.e;
+        epair[(size_t) j * (ntypes + 1) + i] = p.e;
+      }
+}
+
+int FixHardSphere::setmask()
+{
+  return POST_INTEGRATE;
+}
+
+double FixHardSphere::current_tc() const
+{
+  return tc_user >= 0.0 ? tc_user : 0.5 * update->dt;
+}
+
+void FixHardSphere::init()
+{
+  if (utils::strmatch(update->integrate_style, "^respa"))
+    error->all(FLERR, "Fix hardsphere does not support run_style respa");
+  if (domain->triclinic) error->all(FLERR, "Fix hardsphere requires an orthogonal box");
+  if (comm->nprocs > 1 && !comm->ghost_velocity)
+    error->all(FLERR, "Fix hardsphere requires 'comm_modify vel yes' when running on more "
+                      "than one MPI rank");
+  if (neighbor->every != 1 || neighbor->delay != 0)
+    error->all(FLERR, "Fix hardsphere requires 'neigh_modify every 1 delay 0' (it relies on "
+                      "the neighbor list covering every step's moves)");
+  if ((bigint) epair.size() != (bigint) (atom->ntypes + 1) * (atom->ntypes + 1))
+    error->all(FLERR, "Fix hardsphere: the number of atom types changed; define the fix again");
+
+  for (int f = 0; f < HSGPU::Collide::NFACES; ++f) {
+    if (!walls.on[f]) continue;
+    const int d = f / 2, side = f % 2;
+    if (domain->periodicity[d])
+      error->all(FLERR, "Fix hardsphere: wall {} is on a periodic face of the box", FACES[f]);
+    if (domain->boundary[d][side] != 1)
+      error->all(FLERR, "Fix hardsphere: wall {} needs a fixed boundary ('f') on that face",
+                 FACES[f]);
+  }
+
+  // Largest radius in the group, and masses.
+  const int nlocal = atom->nlocal;
+  double rlocal = 0.0;
+  int bad = 0;
+  for (int i = 0; i < nlocal; ++i)
+    if (atom->mask[i] & groupbit) {
+      rlocal = std::max(rlocal, atom->radius[i]);
+      if (!(atom->rmass[i] > 0.0)) bad = 1;
+    }
+  MPI_Allreduce(&rlocal, &rmax, 1, MPI_DOUBLE, MPI_MAX, world);
+  int anybad = 0;
+  MPI_Allreduce(&bad, &anybad, 1, MPI_INT, MPI_MAX, world);
+  if (anybad) error->all(FLERR, "Fix hardsphere requires positive masses (rmass) for its atoms");
+  if (!(rmax > 0.0)) error->all(FLERR, "Fix hardsphere: no atom of the group has a radius > 0");
+
+  reach = reach_user > 0.0 ? reach_user : rmax;
+  list_cut = 2.0 * rmax + 2.0 * reach;
+  for (int d = 0; d < domain->dimension; ++d)
+    if (domain->periodicity[d] && 2.0 * list_cut >= domain->prd[d])
+      error->all(FLERR,
+                 "Fix hardsphere: the periodic box length {} along {} must exceed twice the "
+                 "collision range 2*max radius + 2*reach = {}",
+                 domain->prd[d], "xyz"[d], list_cut);
+
+  // Ghost atoms must reach as far as the neighbor list.  Neighbor's own cutoff comes from
+  // the pair style; a fix's custom list does not raise it.
+  double ghost = comm->cutghostuser;
+  if (force->pair && force->pair->cutforce > 0.0)
+    ghost = std::max(ghost, force->pair->cutforce + neighbor->skin);
+  const double need = list_cut + neighbor->skin;
+  if (ghost < need)
+    error->all(FLERR,
+               "Fix hardsphere needs ghost atoms out to {:.8g} (2*max radius {:.8g} + 2*reach "
+               "{:.8g} + neighbor skin {:.8g}) but the communication cutoff is {:.8g}: use "
+               "'comm_modify cutoff {:.8g}' (or more)",
+               need, 2.0 * rmax, 2.0 * reach, neighbor->skin, ghost, need);
+
+  maxevents = maxevents_user > 0 ? maxevents_user : 1000 + 100 * atom->natoms;
+
+  HsgpuCompat::request_full_list(neighbor, this, instance_me, list_cut);
+}
+
+void FixHardSphere::init_list(int, NeighList *ptr)
+{
+  list = ptr;
+}
+
+double FixHardSphere::compute_vector(int n)
+{
+  switch (n) {
+  case 0:
+    return n_step;
+  case 1:
+    return n_total;
+  case 2:
+    return n_wall;
+  case 3:
+    return ke_total;
+  case 4:
+    return max_events;
+  case 5:
+    return events_total;
+  default:
+    return 0.0;
+  }
+}
+
+/* --- restart ---------------------------------------------------------------------------- */
+
+void FixHardSphere::write_restart(FILE *fp)
+{
+  const double state[7] = {n_total, n_wall, ke_total, max_events, events_total, n_redo, n_step};
+  if (comm->me == 0) {
+    const int size = (int) sizeof(state);
+    fwrite(&size, sizeof(int), 1, fp);
+    fwrite(state, sizeof(double), 7, fp);
+  }
+}
+
+void FixHardSphere::restart(char *buf)
+{
+  const auto *state = (const double *) buf;
+  n_total = state[0];
+  n_wall = state[1];
+  ke_total = state[2];
+  max_events = state[3];
+  events_total = state[4];
+  n_redo = state[5];
+  n_step = state[6];
+}
+
+/* --- per-atom state: time of the last collision ----------------------------------------- */
+
+void FixHardSphere::grow_arrays(int nmax)
+{
+  memory->grow(tlast, nmax, "hardsphere:tlast");
+}
+
+void FixHardSphere::copy_arrays(int i, int j, int)
+{
+  tlast[j] = tlast[i];
+}
+
+void FixHardSphere::set_arrays(int i)
+{
+  tlast[i] = NEVER_COLLIDED;
+}
+
+int FixHardSphere::pack_exchange(int i, double *buf)
+{
+  buf[0] = tlast[i];
+  return 1;
+}
+
+int FixHardSphere::unpack_exchange(int nlocal, double *buf)
+{
+  tlast[nlocal] = buf[0];
+  return 1;
+}
+
+int FixHardSphere::pack_restart(int i, double *buf)
+{
+  buf[0] = 2;    // count first, as every fix's per-atom restart data
+  buf[1] = tlast[i];
+  return 2;
+}
+
+void FixHardSphere::unpack_restart(int nlocal, int nth)
+{
+  double **extra = atom->extra;
+  int m = 0;
+  for (int k = 0; k < nth; ++k) m += static_cast<int>(extra[nlocal][m]);
+  tlast[nlocal] = extra[nlocal][m + 1];
+}
+
+int FixHardSphere::size_restart(int)
+{
+  return 2;
+}
+
+int FixHardSphere::maxsize_restart()
+{
+  return 2;
+}
+
+/* --- forward communication of the owners' positions and velocities ------------------------
+   Raw owner coordinates (no periodic shift): every rank then computes a pair's separation
+   from the same numbers with the same (anti-symmetric) arithmetic. */
+
+int FixHardSphere::pack_forward_comm(int n, int *list_, double *buf, int, int *)
+{
+  int m = 0;
+  for (int k = 0; k < n; ++k) {
+    const double *g = &gdata[(size_t) NFWD * list_[k]];
+    for (int q = 0; q < NFWD; ++q) buf[m++] = g[q];
+  }
+  return m;
+}
+
+void FixHardSphere::unpack_forward_comm(int n, int first, double *buf)
+{
+  int m = 0;
+  for (int i = first; i < first + n; ++i) {
+    double *g = &gdata[(size_t) NFWD * i];
+    for (int q = 0; q < NFWD; ++q) g[q] = buf[m++];
+  }
+}
+
+double FixHardSphere::memory_usage()
+{
+  double bytes = (double) atom->nmax * sizeof(double);
+  bytes += (double) gdata.capacity() * sizeof(double);
+  bytes += (double) (bodies.capacity() + lbodies.capacity() + gbodies.capacity()) *
+           sizeof(HSGPU::Collide::Body);
+  bytes += (double) (edges.capacity() + ledges.capacity() + gedges.capacity()) *
+           sizeof(HSGPU::Collide::Edge);
+  return bytes;
+}

@@ -1,0 +1,123 @@
+/* -*- c++ -*- ------------------------------------------------------------------
+   HARDSPHERE_GPU: fix hardsphere, hard-core collisions resolved inside each timestep.
+
+     fix ID group-ID hardsphere keyword value ...
+
+   After the integrator's first half kick and drift (post_integrate) the fix finds the
+   collisions of the step on the atoms' paths, carries them out in time order (rolling each
+   pair back to its contact time, applying the impulse, moving it on) and hands the integrator
+   positions and half-step velocities free of overlaps.  The physics lives in core/; this class
+   gathers the atoms, sorts the work into components that each rank can resolve alone and
+   boundary components that all ranks resolve identically, and does LAMMPS's bookkeeping.
+   See doc/fix_hardsphere.md.
+------------------------------------------------------------------------------------- */
+#ifndef LMP_HSGPU_FIX_HARDSPHERE_H
+#define LMP_HSGPU_FIX_HARDSPHERE_H
+
+#include "fix.h"
+
+#include "core/event_order.h"
+#include "core/trajectory.h"
+
+#include <vector>
+
+namespace LAMMPS_NS {
+
+class FixHardSphere : public Fix {
+ public:
+  FixHardSphere(class LAMMPS *, int, char **);
+  ~FixHardSphere() override;
+  int setmask() override;
+  void init() override;
+  void init_list(int, class NeighList *) override;
+  void setup(int) override;
+  void post_integrate() override;
+  double compute_vector(int) override;
+
+  void write_restart(FILE *) override;
+  void restart(char *) override;
+  void grow_arrays(int) override;
+  void copy_arrays(int, int, int) override;
+  void set_arrays(int) override;
+  int pack_exchange(int, double *) override;
+  int unpack_exchange(int, double *) override;
+  int pack_restart(int, double *) override;
+  void unpack_restart(int, int) override;
+  int size_restart(int) override;
+  int maxsize_restart() override;
+  int pack_forward_comm(int, int *, double *, int, int *) override;
+  void unpack_forward_comm(int, int, double *) override;
+  double memory_usage() override;
+
+ protected:
+  // --- settings -------------------------------------------------------------------------
+  std::vector<double> epair;    // restitution of type pairs, (ntypes + 1)^2
+  HSGPU::Collide::Walls walls;
+  int serial_order;         // 1: the seed paper's global loop, 0: components
+  double tc_user;           // TC-model time, < 0: auto (dt / 2)
+  double vmin;              // elastic threshold on |v_n|
+  bigint maxevents_user;    // cap on events per step, < 0: auto
+  int maxevents_warn;       // 1: warn when capped, 0: error
+  int overlap_push;         // 1: push overlapping pairs apart, 0: error
+  double reach_user;        // largest distance an atom may move per step, <= 0: auto
+
+  // --- derived in init() ----------------------------------------------------------------
+  double rmax;        // largest radius in the group
+  double reach;       // displacement budget per step the neighbor list covers
+  double list_cut;    // neighbor list cutoff (without skin): 2 rmax + 2 reach
+  bigint maxevents;
+  class NeighList *list;
+
+  // --- per-atom state ---------------------------------------------------------------------
+  double *tlast;    // time of the atom's last collision relative to the end of the last step
+
+  // --- output -----------------------------------------------------------------------------
+  double n_step;          // collisions (pair) this step
+  double n_total;         // pair collisions in total
+  double n_wall;          // wall collisions in total
+  double ke_total;        // kinetic energy removed in total (energy units)
+  double max_events;      // most events any step needed
+  double events_total;    // events in total
+  double n_redo;          // steps redone with a larger displacement budget
+
+  // --- per-step work ----------------------------------------------------------------------
+  // Forwarded per atom: owner's x (3), v (3), radius, owner rank, owner's local index.
+  static constexpr int NFWD = 9;
+  std::vector<double> gdata;    // forwarded per-atom data, NFWD per owned and ghost atom
+  std::vector<int> body_of;     // local atom -> body index, -1 when none
+  std::vector<HSGPU::Collide::Body> bodies;
+  std::vector<HSGPU::Collide::Edge> edges;
+  std::vector<int> foreign_of;        // ghost - nlocal -> foreign node, -1 when none
+  std::vector<tagint> foreign_tag;    // foreign node -> atom ID
+  struct ForeignEdge {
+    int body, node, ghost;    // owned body, foreign node, a ghost index of it
+  };
+  std::vector<ForeignEdge> fedges;
+  std::vector<char> in_boundary;    // body is in a component that touches a foreign node
+  std::vector<HSGPU::Collide::Body> lbodies, gbodies;
+  std::vector<HSGPU::Collide::Edge> ledges, gedges;
+  std::vector<int> lindex;        // body -> index in lbodies, -1 when boundary
+  std::vector<int> gmine;         // global body -> my body index, -1 when not mine
+  std::vector<double> push_dx;    // overlap push per owned atom
+  double ovl[5];                  // first overlap found: flag, id, id or wall, dist, s
+  double n_push;                  // overlaps pushed apart in total
+  HSGPU::Collide::Resolver resolver;
+  HSGPU::Collide::UnionFind uf;
+
+  void parse(int narg, char **arg);
+  double current_tc() const;
+  HSGPU::Collide::Params step_params() const;
+  void forward_state();
+  double step_budget(double &vmax);
+  int build(double D, double drift_dt, bool collect_pushes);
+  void report_overlap(int npush);
+  void prepare(double D, double drift_dt);
+  void classify();
+  void gather_boundary();
+  void resolve(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all, double &worst);
+  void apply_results(double dt);
+};
+
+}    // namespace LAMMPS_NS
+
+#endif

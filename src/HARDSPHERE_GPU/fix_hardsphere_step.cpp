@@ -1,0 +1,623 @@
+/* ----------------------------------------------------------------------------------
+   HARDSPHERE_GPU: fix hardsphere, the step (see fix_hardsphere.h).
+
+   post_integrate():
+     1. displacement budget D for the step (2 x the fastest drift, plus the bow), checked
+        against the reach the neighbor list covers;
+     2. forward communication of the owners' positions and velocities to the ghosts;
+     3. bodies for the owned atoms (start points X0 = x - vh dt), edges for the pairs whose
+        start points are within contact + 2 D (nearest image), overlap check (error or push);
+     4. components of the edge graph: those made of owned atoms only are resolved here, those
+        that reach a ghost owned by another rank ("boundary components") are gathered from
+        all ranks (MPI_Allgatherv of their atoms' states and edges) and resolved identically
+        on every rank, in atom-ID order;
+     5. check that nobody moved further than D (else redo with a larger D);
+     6. positions and half-step velocities back to the atoms, counters, virial.
+------------------------------------------------------------------------------------- */
+
+#include "fix_hardsphere.h"
+
+#include "atom.h"
+#include "comm.h"
+#include "domain.h"
+#include "error.h"
+#include "force.h"
+#include "neigh_list.h"
+#include "update.h"
+
+#include "core/collision_step.h"
+#include "lmp_compat.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <mpi.h>
+
+using namespace LAMMPS_NS;
+using HSGPU::Collide::Body;
+using HSGPU::Collide::Edge;
+using HSGPU::Collide::Params;
+using HSGPU::Collide::Tally;
+
+namespace {
+
+constexpr double NEVER_COLLIDED = -1.0e30;
+constexpr double OVERLAP_TOL = 1e-9;    // pairs closer than (1 - tol) x contact overlap
+constexpr int MAXPUSH = 20;             // overlap push passes before giving up
+constexpr int NSTATE = 15;              // doubles per body in the boundary exchange
+
+// Lexicographic order of overlap reports: lower atom ID first, walls (negative) first.
+bool before(double a1, double b1, double a2, double b2)
+{
+  return a1 < a2 || (a1 == a2 && b1 < b2);
+}
+
+}    // namespace
+
+Params FixHardSphere::step_params() const
+{
+  Params p;
+  p.dt = update->dt;
+  p.tc = current_tc();
+  p.vmin = vmin;
+  p.walls = walls;
+  for (int f = 0; f < HSGPU::Collide::NFACES; ++f)
+    p.walls.pos[f] = (f & 1) ? domain->boxhi[f / 2] : domain->boxlo[f / 2];
+  p.ntypes = atom->ntypes;
+  p.epair = epair.data();
+  p.maxevents = (long) maxevents;
+  return p;
+}
+
+void FixHardSphere::forward_state()
+{
+  const int nlocal = atom->nlocal;
+  if (gdata.size() < (size_t) NFWD * atom->nmax) gdata.resize((size_t) NFWD * atom->nmax);
+  double **x = atom->x, **v = atom->v;
+  const double *radius = atom->radius;
+  for (int i = 0; i < nlocal; ++i) {
+    double *g = &gdata[(size_t) NFWD * i];
+    for (int d = 0; d < 3; ++d) {
+      g[d] = x[i][d];
+      g[3 + d] = v[i][d];
+    }
+    g[6] = radius[i];
+    g[7] = comm->me;
+    g[8] = i;
+  }
+  HsgpuCompat::forward_comm(comm, this);
+}
+
+/* The step's displacement budget D: nobody's drift line may leave a ball of radius D around
+   its start point.  Twice the fastest drift plus the bow, at most the reach the neighbor list
+   was built for; the resolution checks it afterwards and redoes the step if it was short. */
+double FixHardSphere::step_budget(double &vmax)
+{
+  const int nlocal = atom->nlocal;
+  const int *mask = atom->mask;
+  double **v = atom->v, **f = atom->f;
+  const double ftm2v = force->ftm2v;
+  double loc[3] = {0.0, 0.0, 0.0}, glob[3];
+  for (int i = 0; i < nlocal; ++i) {
+    if (!(mask[i] & groupbit)) continue;
+    const double v2 = v[i][0] * v[i][0] + v[i][1] * v[i][1] + v[i][2] * v[i][2];
+    const double f2 = f[i][0] * f[i][0] + f[i][1] * f[i][1] + f[i][2] * f[i][2];
+    const double a = std::sqrt(f2) * ftm2v / atom->rmass[i];
+    loc[0] = std::max(loc[0], v2);
+    loc[1] = std::max(loc[1], a);
+    loc[2] = std::max(loc[2], atom->radius[i]);
+  }
+  MPI_Allreduce(loc, glob, 3, MPI_DOUBLE, MPI_MAX, world);
+  vmax = std::sqrt(glob[0]);
+  const double amax = glob[1];
+  if (glob[2] > rmax * (1.0 + 1e-12))
+    error->all(FLERR,
+               "Fix hardsphere: an atom's radius grew to {} during the run; the neighbor "
+               "list was set up for a largest radius of {} (start a new run after changing radii)",
+               glob[2], rmax);
+  const double dt = update->dt;
+  const double least = vmax * dt + 0.5 * amax * dt * dt;
+  if (least > reach)
+    error->all(FLERR,
+               "Fix hardsphere: atoms move up to {:.6g} per step (speed {:.6g}, timestep {:.6g}), "
+               "more than the reach {:.6g} its neighbor list covers: reduce the timestep, or raise "
+               "the fix's 'reach' keyword (and 'comm_modify cutoff' to match)",
+               least, vmax, dt, reach);
+  return std::min(2.0 * least + 1e-12 * rmax, reach);
+}
+
+/* Bodies, foreign nodes, edges; overlaps are counted (and, with overlap push, the pushes
+   that separate them collected in push_dx).  Returns the number of overlaps found here. */
+int FixHardSphere::build(double D, double drift_dt, bool collect_pushes)
+{
+  const int nlocal = atom->nlocal, nall = nlocal + atom->nghost;
+  const int me = comm->me;
+  double **x = atom->x, **v = atom->v, **f = atom->f;
+  const int *mask = atom->mask, *type = atom->type;
+  const tagint *tag = atom->tag;
+  const double *radius = atom->radius, *rmass = atom->rmass;
+  const double ftm2v = force->ftm2v;
+  const int periodic[3] = {domain->xperiodic, domain->yperiodic, domain->zperiodic};
+  const double *prd = domain->prd;
+
+  body_of.assign(nlocal, -1);
+  bodies.clear();
+  for (int i = 0; i < nlocal; ++i) {
+    if (!(mask[i] & groupbit)) continue;
+    Body b;
+    std::memset(&b, 0, sizeof(b));
+    for (int d = 0; d < 3; ++d) {
+      b.v[d] = v[i][d];
+      b.x[d] = b.X0[d] = x[i][d] - v[i][d] * drift_dt;
+      b.a[d] = f[i][d] * ftm2v / rmass[i];
+      b.rest[d] = -1;
+    }
+    b.radius = radius[i];
+    b.mass = rmass[i];
+    b.tlast = tlast[i];
+    b.id = (long) tag[i];
+    b.type = type[i];
+    b.owner = i;
+    body_of[i] = (int) bodies.size();
+    bodies.push_back(b);
+  }
+
+  // Ghosts of atoms owned by other ranks: one foreign node per atom ID.
+  foreign_of.assign(nall - nlocal, -1);
+  foreign_tag.clear();
+  {
+    std::vector<std::pair<tagint, int>> ft;
+    for (int j = nlocal; j < nall; ++j)
+      if ((mask[j] & groupbit) && (int) gdata[(size_t) NFWD * j + 7] != me)
+        ft.emplace_back(tag[j], j);
+    std::sort(ft.begin(), ft.end());
+    for (size_t k = 0; k < ft.size(); ++k) {
+      if (k == 0 || ft[k].first != ft[k - 1].first) foreign_tag.push_back(ft[k].first);
+      foreign_of[ft[k].second - nlocal] = (int) foreign_tag.size() - 1;
+    }
+  }
+
+  // Edges from the full neighbor list.
+  edges.clear();
+  fedges.clear();
+  const int inum = list->inum;
+  const int *ilist = list->ilist, *numneigh = list->numneigh;
+  int **firstneigh = list->firstneigh;
+  for (int ii = 0; ii < inum; ++ii) {
+    const int i = ilist[ii];
+    if (!(mask[i] & groupbit)) continue;
+    const Body &bi = bodies[body_of[i]];
+    const int *jlist = firstneigh[i];
+    for (int jj = 0; jj < numneigh[i]; ++jj) {
+      const int j = jlist[jj] & NEIGHMASK;
+      if (!(mask[j] & groupbit) || tag[j] == tag[i]) continue;
+      int bj = -1, node = -1;
+      double X0j[3], rj;
+      if (j < nlocal) {
+        bj = body_of[j];
+      } else {
+        const double *g = &gdata[(size_t) NFWD * j];
+        if ((int) g[7] == me)
+          bj = body_of[(int) g[8]];
+        else
+          node = foreign_of[j - nlocal];
+      }
+      if (bj >= 0) {
+        if (tag[i] > tag[j]) continue;    // each local pair once, from its lower ID
+        for (int d = 0; d < 3; ++d) X0j[d] = bodies[bj].X0[d];
+        rj = bodies[bj].radius;
+      } else {
+        if (node < 0) continue;
+        const double *g = &gdata[(size_t) NFWD * j];
+        for (int d = 0; d < 3; ++d) X0j[d] = g[d] - g[3 + d] * drift_dt;
+        rj = g[6];
+      }
+      double r[3], sh[3];
+      HSGPU::Collide::nearest_image_separation(bi.X0, X0j, prd, periodic, r, sh);
+      const double range = bi.radius + rj + 2.0 * D;
+      if (r[0] * r[0] + r[1] * r[1] + r[2] * r[2] > range * range) continue;
+      if (bj >= 0) {
+        Edge e;
+        e.i = body_of[i];
+        e.j = bj;
+        for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
+        edges.push_back(e);
+      } else {
+        fedges.push_back({body_of[i], node, j});
+      }
+    }
+  }
+  // A pair can appear once per periodic image held here: keep one.
+  std::sort(edges.begin(), edges.end(),
+            [](const Edge &a, const Edge &b) { return a.i < b.i || (a.i == b.i && a.j < b.j); });
+  edges.erase(std::unique(edges.begin(), edges.end(),
+                          [](const Edge &a, const Edge &b) { return a.i == b.i && a.j == b.j; }),
+              edges.end());
+  std::sort(fedges.begin(), fedges.end(), [](const ForeignEdge &a, const ForeignEdge &b) {
+    return a.body < b.body || (a.body == b.body && a.node < b.node);
+  });
+  fedges.erase(std::unique(fedges.begin(), fedges.end(),
+                           [](const ForeignEdge &a, const ForeignEdge &b) {
+                             return a.body == b.body && a.node == b.node;
+                           }),
+               fedges.end());
+
+  // Overlaps: pairs closer than contact, spheres inside a wall.
+  int found = 0;
+  ovl[0] = 0.0;
+  if (collect_pushes) push_dx.assign((size_t) 3 * nlocal, 0.0);
+  auto note = [&](double a, double b, double dist, double s) {
+    ++found;
+    if (ovl[0] == 0.0 || before(a, b, ovl[1], ovl[2])) {
+      ovl[0] = 1.0;
+      ovl[1] = a;
+      ovl[2] = b;
+      ovl[3] = dist;
+      ovl[4] = s;
+    }
+  };
+  auto pair_overlap = [&](const Body &bi, const double *X0j, double rj, double mj, tagint tj,
+                          int bj) {
+    double r[3], sh[3];
+    HSGPU::Collide::nearest_image_separation(bi.X0, X0j, prd, periodic, r, sh);
+    const double s = bi.radius + rj;
+    const double d2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+    const double lim = s * (1.0 - OVERLAP_TOL);
+    if (!(d2 < lim * lim)) return;
+    const double dist = std::sqrt(d2);
+    note((double) std::min((tagint) bi.id, tj), (double) std::max((tagint) bi.id, tj), dist, s);
+    if (!collect_pushes) return;
+    // Mass-weighted push along the line of centres to just beyond contact: the centre of
+    // mass stays put.
+    double n[3] = {1.0, 0.0, 0.0};
+    if (dist > 0.0)
+      for (int d = 0; d < 3; ++d) n[d] = r[d] / dist;
+    const double delta = s * (1.0 + 4.0 * OVERLAP_TOL) - dist;
+    const double wi = mj / (bi.mass + mj), wj = bi.mass / (bi.mass + mj);
+    for (int d = 0; d < 3; ++d) {
+      push_dx[(size_t) 3 * bi.owner + d] += wi * delta * n[d];
+      if (bj >= 0) push_dx[(size_t) 3 * bodies[bj].owner + d] -= wj * delta * n[d];
+    }
+  };
+  for (const Edge &e : edges)
+    pair_overlap(bodies[e.i], bodies[e.j].X0, bodies[e.j].radius, bodies[e.j].mass,
+                 (tagint) bodies[e.j].id, e.j);
+  for (const ForeignEdge &fe : fedges) {
+    const double *g = &gdata[(size_t) NFWD * fe.ghost];
+    double X0j[3];
+    for (int d = 0; d < 3; ++d) X0j[d] = g[d] - g[3 + d] * drift_dt;
+    pair_overlap(bodies[fe.body], X0j, g[6], rmass[fe.ghost], foreign_tag[fe.node], -1);
+  }
+  for (const Body &b : bodies)
+    for (int fc = 0; fc < HSGPU::Collide::NFACES; ++fc) {
+      if (!walls.on[fc]) continue;
+      const int d = fc / 2;
+      const double s = HSGPU::Collide::face_sign(fc);
+      const double pos = (fc & 1) ? domain->boxhi[d] : domain->boxlo[d];
+      const double gap = s * (b.X0[d] - pos) - b.radius;
+      if (!(gap < -OVERLAP_TOL * b.radius)) continue;
+      note((double) b.id, (double) (-1 - fc), s * (b.X0[d] - pos), b.radius);
+      if (collect_pushes)
+        push_dx[(size_t) 3 * b.owner + d] += s * (-gap + 4.0 * OVERLAP_TOL * b.radius);
+    }
+  return found;
+}
+
+/* Stops with an error naming the overlap with the lowest atom IDs over all ranks. */
+void FixHardSphere::report_overlap(int npush)
+{
+  std::vector<double> all((size_t) 5 * comm->nprocs);
+  MPI_Allgather(ovl, 5, MPI_DOUBLE, all.data(), 5, MPI_DOUBLE, world);
+  int best = -1;
+  for (int p = 0; p < comm->nprocs; ++p) {
+    const double *o = &all[(size_t) 5 * p];
+    if (o[0] == 0.0) continue;
+    if (best < 0 || before(o[1], o[2], all[(size_t) 5 * best + 1], all[(size_t) 5 * best + 2]))
+      best = p;
+  }
+  const double *o = &all[(size_t) 5 * best];
+  const std::string after =
+      npush > 0 ? fmt::format(" after {} passes of 'overlap push'", npush) : std::string();
+  if (o[2] < 0) {
+    const int fc = -1 - (int) o[2];
+    const char *names[6] = {"xlo", "xhi", "ylo", "yhi", "zlo", "zhi"};
+    error->all(FLERR,
+               "Fix hardsphere: atom {} overlaps wall {} at step {}{}: its centre is {:.10g} "
+               "from the wall, its radius {:.10g}",
+               (tagint) o[1], names[fc], update->ntimestep, after, o[3], o[4]);
+  }
+  error->all(FLERR,
+             "Fix hardsphere: atoms {} and {} overlap at step {}{}: centre distance {:.10g}, "
+             "contact distance {:.10g}{}",
+             (tagint) o[1], (tagint) o[2], update->ntimestep, after, o[3], o[4],
+             overlap_push ? "" : " (use the fix's 'overlap push' to push overlaps apart)");
+}
+
+/* Checks for overlaps at the start points (x - v drift_dt); pushes them apart or stops.
+   Leaves bodies and edges built for budget D. */
+void FixHardSphere::prepare(double D, double drift_dt)
+{
+  for (int pass = 0;; ++pass) {
+    forward_state();
+    const int found = build(D, drift_dt, overlap_push && pass < MAXPUSH);
+    int any = 0;
+    MPI_Allreduce(&found, &any, 1, MPI_INT, MPI_SUM, world);
+    if (!any) return;
+    if (!overlap_push || pass >= MAXPUSH) report_overlap(pass);
+    double **x = atom->x;
+    for (const Body &b : bodies)
+      for (int d = 0; d < 3; ++d) x[b.owner][d] += push_dx[(size_t) 3 * b.owner + d];
+    n_push += any;
+  }
+}
+
+/* Components of the edge graph (foreign nodes included): those touching a foreign node are
+   boundary components.  In serial order on several ranks everything is. */
+void FixHardSphere::classify()
+{
+  const int nb = (int) bodies.size(), nf = (int) foreign_tag.size();
+  uf.reset(nb + nf);
+  for (const Edge &e : edges) uf.unite(e.i, e.j);
+  for (const ForeignEdge &fe : fedges) uf.unite(fe.body, nb + fe.node);
+  std::vector<char> foreign_root(nb + nf, 0);
+  for (int k = 0; k < nf; ++k) foreign_root[uf.find(nb + k)] = 1;
+  const bool all = serial_order && comm->nprocs > 1;
+  in_boundary.resize(nb);
+  for (int b = 0; b < nb; ++b) in_boundary[b] = all ? 1 : foreign_root[uf.find(b)];
+}
+
+/* Boundary bodies of all ranks, with their edges, to every rank, in atom-ID order. */
+void FixHardSphere::gather_boundary()
+{
+  const int nb = (int) bodies.size();
+  const int periodic[3] = {domain->xperiodic, domain->yperiodic, domain->zperiodic};
+  const double *prd = domain->prd;
+
+  // Partners with a higher ID, per boundary body.
+  std::vector<int> pstart(nb + 1, 0);
+  for (const Edge &e : edges)
+    if (in_boundary[e.i]) pstart[e.i + 1]++;
+  for (const ForeignEdge &fe : fedges)
+    if (foreign_tag[fe.node] > (tagint) bodies[fe.body].id) pstart[fe.body + 1]++;
+  for (int b = 0; b < nb; ++b) pstart[b + 1] += pstart[b];
+  std::vector<double> partners(pstart[nb]);
+  std::vector<int> fill(pstart.begin(), pstart.end() - 1);
+  for (const Edge &e : edges)
+    if (in_boundary[e.i]) partners[fill[e.i]++] = (double) bodies[e.j].id;
+  for (const ForeignEdge &fe : fedges)
+    if (foreign_tag[fe.node] > (tagint) bodies[fe.body].id)
+      partners[fill[fe.body]++] = (double) foreign_tag[fe.node];
+
+  std::vector<double> send;
+  std::vector<int> mine_sent;
+  for (int b = 0; b < nb; ++b) {
+    if (!in_boundary[b]) continue;
+    const Body &s = bodies[b];
+    const double head[NSTATE] = {
+        (double) s.id, (double) s.type, s.X0[0], s.X0[1], s.X0[2],
+        s.v[0],        s.v[1],          s.v[2],  s.a[0],  s.a[1],
+        s.a[2],        s.radius,        s.mass,  s.tlast, (double) (pstart[b + 1] - pstart[b])};
+    send.insert(send.end(), head, head + NSTATE);
+    send.insert(send.end(), partners.begin() + pstart[b], partners.begin() + pstart[b + 1]);
+    mine_sent.push_back(b);
+  }
+
+  const int nprocs = comm->nprocs;
+  std::vector<int> counts(nprocs), displs(nprocs);
+  int nsend = (int) send.size();
+  MPI_Allgather(&nsend, 1, MPI_INT, counts.data(), 1, MPI_INT, world);
+  bigint total = 0;
+  for (int p = 0; p < nprocs; ++p) {
+    displs[p] = (int) total;
+    total += counts[p];
+  }
+  if (total > 2147483647L)
+    error->all(FLERR, "Fix hardsphere: too many atoms in components that span ranks");
+  gbodies.clear();
+  gedges.clear();
+  gmine.clear();
+  if (total == 0) return;
+  std::vector<double> recv(total);
+  MPI_Allgatherv(send.data(), nsend, MPI_DOUBLE, recv.data(), counts.data(), displs.data(),
+                 MPI_DOUBLE, world);
+
+  // Entries in atom-ID order.
+  std::vector<std::pair<double, bigint>> order;    // (ID, offset)
+  for (bigint off = 0; off < total;) {
+    order.emplace_back(recv[off], off);
+    off += NSTATE + (bigint) recv[off + NSTATE - 1];
+  }
+  std::sort(order.begin(), order.end());
+  const int ng = (int) order.size();
+  gbodies.resize(ng);
+  gmine.assign(ng, -1);
+  std::vector<double> ids(ng);
+  for (int k = 0; k < ng; ++k) {
+    const double *h = &recv[order[k].second];
+    Body &b = gbodies[k];
+    std::memset(&b, 0, sizeof(b));
+    b.id = (long) h[0];
+    b.type = (int) h[1];
+    for (int d = 0; d < 3; ++d) {
+      b.X0[d] = b.x[d] = h[2 + d];
+      b.v[d] = h[5 + d];
+      b.a[d] = h[8 + d];
+      b.rest[d] = -1;
+    }
+    b.radius = h[11];
+    b.mass = h[12];
+    b.tlast = h[13];
+    b.owner = -1;
+    ids[k] = h[0];
+  }
+  // Which of them are mine: my entries sit at my displacement, in the order I packed them.
+  {
+    bigint off = displs[comm->me];
+    for (int b : mine_sent) {
+      const double id = recv[off];
+      const int k = (int) (std::lower_bound(ids.begin(), ids.end(), id) - ids.begin());
+      gmine[k] = b;
+      off += NSTATE + (bigint) recv[off + NSTATE - 1];
+    }
+  }
+  for (int k = 0; k < ng; ++k) {
+    const double *h = &recv[order[k].second];
+    const int np = (int) h[NSTATE - 1];
+    for (int q = 0; q < np; ++q) {
+      const double pid = h[NSTATE + q];
+      const auto it = std::lower_bound(ids.begin(), ids.end(), pid);
+      if (it == ids.end() || *it != pid)
+        error->one(FLERR, "Fix hardsphere: internal error: partner {} of atom {} was not sent",
+                   (tagint) pid, (tagint) h[0]);
+      Edge e;
+      e.i = k;
+      e.j = (int) (it - ids.begin());
+      double r[3];
+      HSGPU::Collide::nearest_image_separation(gbodies[e.i].X0, gbodies[e.j].X0, prd, periodic, r,
+                                               e.shift);
+      gedges.push_back(e);
+    }
+  }
+}
+
+/* Resolves the step: local components here, boundary components on every rank.  `mine` is
+   this rank's share of the tallies (local plus, on rank 0, the boundary ones), `all` the sum
+   over ranks; `worst` the largest excursion of any drift line. */
+void FixHardSphere::resolve(Tally &mine, Tally &all, double &worst)
+{
+  const Params p = step_params();
+  const int nb = (int) bodies.size();
+  lbodies.clear();
+  ledges.clear();
+  lindex.assign(nb, -1);
+  for (int b = 0; b < nb; ++b)
+    if (!in_boundary[b]) {
+      lindex[b] = (int) lbodies.size();
+      lbodies.push_back(bodies[b]);
+    }
+  for (const Edge &e : edges)
+    if (lindex[e.i] >= 0) {
+      Edge l = e;
+      l.i = lindex[e.i];
+      l.j = lindex[e.j];
+      ledges.push_back(l);
+    }
+
+  Tally tl, tg;
+  if (serial_order)
+    resolver.resolve_serial(lbodies, ledges, p, tl);
+  else
+    resolver.resolve_components(lbodies, ledges, p, tl);
+  gather_boundary();
+  if (!gbodies.empty()) {
+    if (serial_order)
+      resolver.resolve_serial(gbodies, gedges, p, tg);
+    else
+      resolver.resolve_components(gbodies, gedges, p, tg);
+  }
+
+  double w = 0.0, xe[3], ve[3];
+  for (Body &b : lbodies) {
+    HSGPU::Collide::end_of_step(b, p.dt, xe, ve);
+    w = std::max(w, b.exc2);
+  }
+  for (Body &b : gbodies) {
+    HSGPU::Collide::end_of_step(b, p.dt, xe, ve);
+    w = std::max(w, b.exc2);
+  }
+  w = std::sqrt(w);
+  MPI_Allreduce(&w, &worst, 1, MPI_DOUBLE, MPI_MAX, world);
+
+  mine = tl;
+  if (comm->me == 0) mine.add(tg);
+  long cnt[4] = {mine.pair, mine.wall, mine.rest, mine.events}, gcnt[4];
+  MPI_Allreduce(cnt, gcnt, 4, MPI_LONG, MPI_SUM, world);
+  all = Tally();
+  all.pair = gcnt[0];
+  all.wall = gcnt[1];
+  all.rest = gcnt[2];
+  all.events = gcnt[3];
+  MPI_Allreduce(&mine.ke_lost, &all.ke_lost, 1, MPI_DOUBLE, MPI_SUM, world);
+  int capped = tl.capped | tg.capped;
+  MPI_Allreduce(&capped, &all.capped, 1, MPI_INT, MPI_MAX, world);
+}
+
+/* Positions and half-step velocities of the atoms that had events, and everyone's time of
+   the last collision, relative to the end of this step. */
+void FixHardSphere::apply_results(double dt)
+{
+  double **x = atom->x, **v = atom->v;
+  double xe[3], ve[3];
+  auto put = [&](Body &b, int i) {
+    if (b.nevents > 0) {
+      HSGPU::Collide::end_of_step(b, dt, xe, ve);
+      for (int d = 0; d < 3; ++d) {
+        x[i][d] = xe[d];
+        v[i][d] = ve[d];
+      }
+    }
+    tlast[i] = std::max(b.tlast - dt, NEVER_COLLIDED);
+  };
+  for (Body &b : lbodies) put(b, b.owner);
+  for (size_t k = 0; k < gbodies.size(); ++k)
+    if (gmine[k] >= 0) put(gbodies[k], bodies[gmine[k]].owner);
+}
+
+void FixHardSphere::setup(int)
+{
+  for (int k = 0; k < 6; ++k) virial[k] = 0.0;
+  n_step = 0.0;
+  // Overlaps in the starting configuration (or made since the last run).
+  prepare(0.0, 0.0);
+}
+
+void FixHardSphere::post_integrate()
+{
+  const double dt = update->dt;
+  double vmax;
+  double D = step_budget(vmax);
+  prepare(D, dt);
+  classify();
+
+  Tally mine, all;
+  double worst = 0.0;
+  while (true) {
+    resolve(mine, all, worst);
+    if (all.capped || worst <= D) break;
+    // Someone was pushed further than the budget: the edge graph may have missed a pair.
+    if (worst > reach)
+      error->all(FLERR,
+                 "Fix hardsphere: collisions sent an atom {:.6g} in one step, more than the "
+                 "reach {:.6g} its neighbor list covers: reduce the timestep, or raise the "
+                 "fix's 'reach' keyword (and 'comm_modify cutoff' to match)",
+                 worst, reach);
+    D = std::min(2.0 * worst, reach);
+    n_redo += 1.0;
+    forward_state();
+    build(D, dt, false);
+    classify();
+  }
+  if (all.capped) {
+    const std::string msg = fmt::format(
+        "Fix hardsphere: step {} needed more than maxevents = {} events ({} carried out); {}",
+        update->ntimestep, maxevents, all.events,
+        maxevents_warn ? "the rest of its collisions are not resolved"
+                       : "raise maxevents, or check the guards (tc, vmin) for a collapse");
+    if (maxevents_warn) {
+      if (comm->me == 0) error->warning(FLERR, msg);
+    } else {
+      error->all(FLERR, msg);
+    }
+  }
+
+  apply_results(dt);
+
+  n_step = (double) all.pair;
+  n_total += (double) all.pair;
+  n_wall += (double) all.wall;
+  ke_total += all.ke_lost * force->mvv2e;
+  events_total += (double) all.events;
+  max_events = std::max(max_events, (double) all.events);
+  const double scale = 1.0 / (dt * force->ftm2v);
+  for (int k = 0; k < 6; ++k) virial[k] = mine.virial[k] * scale;
+}

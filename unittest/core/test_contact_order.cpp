@@ -1,0 +1,345 @@
+// LAMMPS-free tests of the event orders (core/event_order.h), driven by a small velocity-Verlet
+// loop written here: `serial` and `components` give bitwise the same steps, the result does not
+// depend on the order of the bodies in memory, no pair overlaps after any step, momentum and
+// energy are conserved where they should be, and free flight does not depend on dt.
+#include "core/event_order.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <random>
+#include <vector>
+
+using namespace HSGPU::Collide;
+
+namespace {
+
+struct Sphere {
+  long id;
+  double x[3], u[3], r, m;
+  double tlast = -1e30;
+};
+
+struct World {
+  std::vector<Sphere> s;
+  double lo[3] = {0, 0, 0}, prd[3] = {10, 10, 10};
+  int periodic[3] = {1, 1, 0};
+  double g = 1.0;    // gravity along -z
+  double e = 0.8;    // restitution of all pairs
+  double ewall = 0.9;
+  bool walls = true;    // floor and roof in z
+  double tc = 0.0;
+};
+
+World random_world(int n, unsigned seed, double vscale)
+{
+  World w;
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  // Jittered cubic lattice: no overlaps at the start.
+  const int k = (int) std::ceil(std::cbrt((double) n));
+  const double a = 10.0 / k;
+  for (int i = 0; i < n; ++i) {
+    Sphere sp;
+    sp.id = 1 + (long) ((i * 7919L) % n);    // IDs not in memory order
+    const int ix = i % k, iy = (i / k) % k, iz = i / (k * k);
+    sp.r = 0.25 * a + 0.15 * a * u(rng);
+    const double slack = 0.5 * a - sp.r;
+    sp.x[0] = (ix + 0.5) * a + slack * (2 * u(rng) - 1);
+    sp.x[1] = (iy + 0.5) * a + slack * (2 * u(rng) - 1);
+    sp.x[2] = (iz + 0.5) * a + slack * (2 * u(rng) - 1);
+    for (int d = 0; d < 3; ++d) sp.u[d] = vscale * (2 * u(rng) - 1);
+    sp.m = sp.r * sp.r * sp.r;
+    w.s.push_back(sp);
+  }
+  return w;
+}
+
+struct StepResult {
+  Tally tally;
+  int redo = 0;
+  long max_component_events = 0;
+};
+
+// One velocity-Verlet step with hard-sphere collisions resolved in the given order.
+StepResult step(World &w, double dt, bool serial)
+{
+  const int n = (int) w.s.size();
+  const double a[3] = {0, 0, -w.g};
+  std::vector<double> epair = {0, 0, 0, w.e};
+  Params p{};
+  p.dt = dt;
+  p.tc = w.tc;
+  p.vmin = 0.0;
+  p.ntypes = 1;
+  p.epair = epair.data();
+  p.maxevents = 200L * n + 1000;    // a runaway step fails the test instead of hanging it
+  for (int f = 0; f < NFACES; ++f) {
+    p.walls.on[f] = (w.walls && f >= 4) ? 1 : 0;
+    p.walls.pos[f] = (f & 1) ? w.lo[f / 2] + w.prd[f / 2] : w.lo[f / 2];
+    p.walls.e[f] = w.ewall;
+  }
+  // First half kick and drift start.
+  std::vector<Body> start(n);
+  double vmax = 0.0;
+  for (int i = 0; i < n; ++i) {
+    Body &b = start[i];
+    std::memset(&b, 0, sizeof(b));
+    for (int d = 0; d < 3; ++d) {
+      b.v[d] = w.s[i].u[d] + 0.5 * dt * a[d];
+      b.x[d] = b.X0[d] = w.s[i].x[d];
+      b.a[d] = a[d];
+      b.rest[d] = -1;
+    }
+    vmax = std::max(vmax, std::sqrt(b.v[0] * b.v[0] + b.v[1] * b.v[1] + b.v[2] * b.v[2]));
+    b.radius = w.s[i].r;
+    b.mass = w.s[i].m;
+    b.tlast = w.s[i].tlast;
+    b.id = w.s[i].id;
+    b.type = 1;
+  }
+  double D = 2.0 * vmax * dt + w.g * dt * dt / 4 + 1e-12;
+  StepResult out;
+  Resolver res;
+  std::vector<Body> bodies;
+  while (true) {
+    // Edges: pairs whose start points are within contact + 2 D (nearest image).
+    std::vector<Edge> edges;
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) {
+        if (start[i].id >= start[j].id) continue;
+        double r[3], sh[3];
+        nearest_image_separation(start[i].X0, start[j].X0, w.prd, w.periodic, r, sh);
+        const double reach = start[i].radius + start[j].radius + 2 * D;
+        if (r[0] * r[0] + r[1] * r[1] + r[2] * r[2] <= reach * reach) {
+          Edge e{i, j, {sh[0], sh[1], sh[2]}};
+          edges.push_back(e);
+        }
+      }
+    bodies = start;
+    out.tally = Tally();
+    if (serial)
+      res.resolve_serial(bodies, edges, p, out.tally);
+    else
+      res.resolve_components(bodies, edges, p, out.tally);
+    out.max_component_events = res.max_component_events;
+    EXPECT_EQ(out.tally.capped, 0) << "a step needed more than " << p.maxevents << " events";
+    if (out.tally.capped) return out;
+    double worst = 0.0;
+    for (auto &b : bodies) {
+      double xe[3], ve[3];
+      end_of_step(b, dt, xe, ve);
+      worst = std::max(worst, std::sqrt(b.exc2));
+    }
+    if (worst <= D) break;
+    D = 2.0 * worst;
+    out.redo++;
+  }
+  for (int i = 0; i < n; ++i) {
+    Body &b = bodies[i];
+    double xe[3], ve[3];
+    end_of_step(b, dt, xe, ve);
+    for (int d = 0; d < 3; ++d) {
+      double x = xe[d];
+      if (w.periodic[d]) {
+        if (x < w.lo[d]) x += w.prd[d];
+        if (x >= w.lo[d] + w.prd[d]) x -= w.prd[d];
+      }
+      w.s[i].x[d] = x;
+      w.s[i].u[d] = ve[d] + 0.5 * dt * a[d];    // second half kick
+    }
+    w.s[i].tlast = b.tlast - dt;
+  }
+  return out;
+}
+
+// Smallest (distance - contact distance) / contact distance over all pairs.
+double worst_overlap(const World &w)
+{
+  double worst = 1e300;
+  const int n = (int) w.s.size();
+  for (int i = 0; i < n; ++i)
+    for (int j = i + 1; j < n; ++j) {
+      double r[3], sh[3];
+      nearest_image_separation(w.s[i].x, w.s[j].x, w.prd, w.periodic, r, sh);
+      const double s = w.s[i].r + w.s[j].r;
+      worst = std::min(worst, (std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) - s) / s);
+    }
+  return worst;
+}
+
+double kinetic(const World &w)
+{
+  double k = 0;
+  for (const auto &s : w.s) k += 0.5 * s.m * (s.u[0] * s.u[0] + s.u[1] * s.u[1] + s.u[2] * s.u[2]);
+  return k;
+}
+
+bool same_state(const World &a, const World &b, int &first_diff)
+{
+  for (size_t i = 0; i < a.s.size(); ++i)
+    for (int d = 0; d < 3; ++d)
+      if (a.s[i].x[d] != b.s[i].x[d] || a.s[i].u[d] != b.s[i].u[d]) {
+        first_diff = (int) i;
+        return false;
+      }
+  return true;
+}
+
+}    // namespace
+
+TEST(EventOrder, SerialAndComponentsAgreeBitwiseWithoutOverlaps)
+{
+  World ws = random_world(250, 11, 1.5), wc = ws;
+  const double dt = 0.02;
+  long pair_total = 0, wall_total = 0, max_events = 0, max_comp = 0;
+  double worst = 1e300;
+  for (int it = 0; it < 300; ++it) {
+    const StepResult rs = step(ws, dt, true), rc = step(wc, dt, false);
+    ASSERT_EQ(rs.tally.events, rc.tally.events) << "step " << it;
+    ASSERT_EQ(rs.tally.pair, rc.tally.pair) << "step " << it;
+    ASSERT_EQ(rs.tally.wall, rc.tally.wall) << "step " << it;
+    int diff = -1;
+    ASSERT_TRUE(same_state(ws, wc, diff)) << "step " << it << " body " << diff;
+    EXPECT_NEAR(rs.tally.ke_lost, rc.tally.ke_lost, 1e-12 * (1 + rs.tally.ke_lost));
+    pair_total += rc.tally.pair;
+    wall_total += rc.tally.wall;
+    max_events = std::max(max_events, rc.tally.events);
+    max_comp = std::max(max_comp, rc.max_component_events);
+    worst = std::min(worst, worst_overlap(wc));
+  }
+  std::printf("[ ORDER    ] 250 spheres, 300 steps: %ld pair and %ld wall collisions, at most %ld "
+              "events in a step, %ld in one component; worst (d - s)/s = %.3g\n",
+              pair_total, wall_total, max_events, max_comp, worst);
+  EXPECT_GT(pair_total, 1000);    // the test is meaningful only with many collisions
+  EXPECT_GT(max_events, 10);
+  EXPECT_GT(worst, -1e-12);
+}
+
+TEST(EventOrder, ResultDoesNotDependOnMemoryOrder)
+{
+  World w1 = random_world(120, 5, 2.0);
+  World w2 = w1;
+  std::mt19937_64 rng(1);
+  std::shuffle(w2.s.begin(), w2.s.end(), rng);
+  for (int it = 0; it < 100; ++it) {
+    step(w1, 0.02, false);
+    step(w2, 0.02, false);
+  }
+  std::vector<const Sphere *> by1(w1.s.size() + 1), by2(w2.s.size() + 1);
+  for (auto &s : w1.s) by1[s.id] = &s;
+  for (auto &s : w2.s) by2[s.id] = &s;
+  for (size_t id = 1; id < by1.size(); ++id)
+    for (int d = 0; d < 3; ++d) {
+      ASSERT_EQ(by1[id]->x[d], by2[id]->x[d]) << "atom " << id;
+      ASSERT_EQ(by1[id]->u[d], by2[id]->u[d]) << "atom " << id;
+    }
+}
+
+TEST(EventOrder, ElasticPeriodicGasConservesMomentumAndEnergy)
+{
+  World w = random_world(200, 21, 2.0);
+  w.g = 0.0;
+  w.walls = false;
+  w.periodic[2] = 1;
+  w.e = 1.0;
+  double p0[3] = {0, 0, 0}, pscale = 0;
+  for (auto &s : w.s)
+    for (int d = 0; d < 3; ++d) {
+      p0[d] += s.m * s.u[d];
+      pscale += s.m * std::fabs(s.u[d]);
+    }
+  const double k0 = kinetic(w);
+  long pairs = 0;
+  for (int it = 0; it < 200; ++it) pairs += step(w, 0.02, false).tally.pair;
+  double p1[3] = {0, 0, 0};
+  for (auto &s : w.s)
+    for (int d = 0; d < 3; ++d) p1[d] += s.m * s.u[d];
+  EXPECT_GT(pairs, 500);
+  for (int d = 0; d < 3; ++d) EXPECT_NEAR(p1[d], p0[d], 1e-13 * pscale);
+  EXPECT_NEAR(kinetic(w), k0, 1e-12 * k0);
+  EXPECT_GT(worst_overlap(w), -1e-12);
+}
+
+TEST(EventOrder, InelasticGasLosesExactlyTheTalliedEnergy)
+{
+  World w = random_world(200, 23, 2.0);
+  w.g = 0.0;
+  w.walls = false;
+  w.periodic[2] = 1;
+  w.e = 0.6;
+  double lost = 0;
+  const double k0 = kinetic(w);
+  for (int it = 0; it < 100; ++it) lost += step(w, 0.02, false).tally.ke_lost;
+  EXPECT_GT(lost, 0.1 * k0);
+  EXPECT_NEAR(kinetic(w), k0 - lost, 1e-12 * k0);
+}
+
+// Under no forces the trajectory is a sequence of straight flights and instantaneous
+// collisions, whatever the step: the state after time T is the same for dt and dt / 4.
+TEST(EventOrder, FreeFlightResultDoesNotDependOnTimestep)
+{
+  World base = random_world(40, 3, 1.0);
+  base.g = 0.0;
+  base.e = 0.7;
+  base.ewall = 0.8;
+  World w1 = base, w4 = base;
+  long pairs = 0, walls = 0;
+  for (int it = 0; it < 50; ++it) {
+    const StepResult r = step(w1, 0.04, false);
+    pairs += r.tally.pair;
+    walls += r.tally.wall;
+  }
+  for (int it = 0; it < 200; ++it) step(w4, 0.01, false);
+  double worst = 0.0;
+  for (size_t i = 0; i < base.s.size(); ++i)
+    for (int d = 0; d < 3; ++d) {
+      worst = std::max(worst, std::fabs(w1.s[i].x[d] - w4.s[i].x[d]));
+      worst = std::max(worst, std::fabs(w1.s[i].u[d] - w4.s[i].u[d]));
+    }
+  std::printf("[ ORDER    ] dt vs dt/4 after %ld pair and %ld wall collisions: max diff %.3g\n",
+              pairs, walls, worst);
+  EXPECT_GT(pairs, 5);
+  EXPECT_GT(walls, 2);
+  EXPECT_LT(worst, 1e-12);
+}
+
+// A pile under gravity with e = 0.5 and the fix's default guards (tc = dt / 2): the pile
+// settles and stays settled: bounded events per step, kinetic energy of order M (g dt)^2, no
+// overlaps, nobody inside the floor.
+TEST(EventOrder, SettledPileIsStable)
+{
+  World w = random_world(216, 8, 0.5);
+  w.e = 0.5;
+  w.ewall = 0.5;
+  w.g = 10.0;
+  const double dt = 0.005;
+  w.tc = dt / 2;
+  long most = 0;
+  for (int it = 0; it < 2000; ++it) most = std::max(most, step(w, dt, false).tally.events);
+  const double ke_settled = kinetic(w);
+  long most_late = 0, events_late = 0;
+  for (int it = 0; it < 500; ++it) {
+    const StepResult r = step(w, dt, false);
+    most_late = std::max(most_late, r.tally.events);
+    events_late += r.tally.events;
+  }
+  double mass = 0, top = 0;
+  for (auto &s : w.s) {
+    mass += s.m;
+    top = std::max(top, s.x[2]);
+  }
+  std::printf("[ ORDER    ] pile of 216: at most %ld events/step while settling, %ld later "
+              "(%.2f per sphere per step); KE = %.3g = %.3g M g^2 dt^2; top at z = %.3f\n",
+              most, most_late, (double) events_late / 500.0 / 216.0, kinetic(w),
+              kinetic(w) / (mass * w.g * w.g * dt * dt), top);
+  EXPECT_LT(kinetic(w), 2.0 * mass * w.g * w.g * dt * dt);
+  EXPECT_LT(ke_settled, 2.0 * mass * w.g * w.g * dt * dt);
+  EXPECT_LT(most_late, 6 * 216);
+  EXPECT_LT(top, 2.5);    // about three layers: nobody flies off
+  EXPECT_GT(worst_overlap(w), -1e-12);
+  for (auto &s : w.s) EXPECT_GE(s.x[2] - s.r, -1e-12);
+}

@@ -1,0 +1,528 @@
+// fix hardsphere through LAMMPS, one rank: two-sphere collisions against the analytic outcome
+// for several timesteps (also under gravity), a ball bouncing on the floor, Newton's cradle,
+// the collision virial, a dense run without overlaps, serial == parallel order, restart
+// continuation and the input errors.
+#include "harness.h"
+
+#define LAMMPS_LIB_MPI
+#include "library.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <array>
+#include <string>
+#include <vector>
+
+using hsgpu_test::Lammps;
+using ::testing::HasSubstr;
+
+namespace {
+
+// printf-style formatting of input lines (the formats are the literals below).
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wformat-nonliteral"
+std::string fmt(const char *format, double a = 0, double b = 0, double c = 0, double d = 0)
+{
+  char buf[512];
+  std::snprintf(buf, sizeof(buf), format, a, b, c, d);
+  return buf;
+}
+#pragma GCC diagnostic pop
+
+double fixv(Lammps &lmp, const char *id, int i)
+{
+  auto *p =
+      (double *) lammps_extract_fix(lmp.handle(), id, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, i, 0);
+  if (!p) return NAN;
+  const double v = *p;
+  lammps_free(p);
+  return v;
+}
+
+// Box [-10,10]^3, given boundary; sphere i at x[i] with velocity v[i], diameter dia[i], mass m[i].
+struct Spheres {
+  std::string boundary = "p p p";
+  std::vector<std::array<double, 3>> x, v;
+  std::vector<double> dia, m;
+};
+
+std::vector<std::string> sphere_lines(const Spheres &s)
+{
+  std::vector<std::string> l = {"units lj",
+                                "atom_style sphere",
+                                "atom_modify map array",
+                                "boundary " + s.boundary,
+                                "region box block -10 10 -10 10 -10 10",
+                                "create_box 2 box",
+                                "comm_modify cutoff 4.0 vel yes",
+                                "neigh_modify every 1 delay 0 check yes",
+                                "thermo_modify norm no"};
+  for (size_t i = 0; i < s.x.size(); ++i) {
+    l.push_back(
+        fmt("create_atoms 1 single %.17g %.17g %.17g units box", s.x[i][0], s.x[i][1], s.x[i][2]));
+    const int id = (int) i + 1;
+    l.push_back("set atom " + std::to_string(id) + fmt(" diameter %.17g", s.dia[i]));
+    l.push_back("set atom " + std::to_string(id) + fmt(" mass %.17g", s.m[i]));
+    l.push_back("group g" + std::to_string(id) + " id " + std::to_string(id));
+    l.push_back("velocity g" + std::to_string(id) +
+                fmt(" set %.17g %.17g %.17g", s.v[i][0], s.v[i][1], s.v[i][2]));
+  }
+  return l;
+}
+
+double max_abs_diff(const std::vector<double> &a, const std::vector<double> &b)
+{
+  double w = 0.0;
+  for (size_t i = 0; i < a.size(); ++i) w = std::max(w, std::fabs(a[i] - b[i]));
+  return w;
+}
+
+}    // namespace
+
+// Masses 1 and 3, e = 0.8, head-on at relative speed 2 from a gap of 1: contact at t = 0.5,
+// then v1 = -0.5 - 0.75 * 1.6, v2 = -0.5 + 0.25 * 1.6.  At t = 3 for three timesteps.
+TEST(FixHardSphere, HeadOnMatchesAnalyticForAnyTimestep)
+{
+  for (double dt : {0.01, 0.03, 0.1}) {
+    Spheres s;
+    s.x = {{-1, 0, 0}, {1, 0, 0}};
+    s.v = {{1, 0, 0}, {-1, 0, 0}};
+    s.dia = {1, 1};
+    s.m = {1, 3};
+    Lammps lmp;
+    lmp.commands(sphere_lines(s));
+    lmp.commands({"fix 1 all nve/sphere", "fix hs all hardsphere restitution 0.8",
+                  fmt("timestep %.17g", dt), fmt("run %.0f", std::round(3.0 / dt))});
+    const auto x = lmp.gather("x", 3), v = lmp.gather("v", 3);
+    const double v1 = -0.5 - 0.75 * 1.6, v2 = -0.5 + 0.25 * 1.6;
+    EXPECT_NEAR(v[0], v1, 1e-14) << "dt " << dt;
+    EXPECT_NEAR(v[3], v2, 1e-14) << "dt " << dt;
+    EXPECT_NEAR(x[0], -1 + 0.5 + v1 * 2.5, 1e-13) << "dt " << dt;
+    EXPECT_NEAR(x[3], 1 - 0.5 + v2 * 2.5, 1e-13) << "dt " << dt;
+    EXPECT_EQ(fixv(lmp, "hs", 1), 1.0);
+    EXPECT_NEAR(fixv(lmp, "hs", 3), 0.5 * (1 - 0.64) * 0.75 * 4.0, 1e-14);
+    EXPECT_EQ(fixv(lmp, "hs", 2), 0.0);
+  }
+}
+
+// Equal masses, impact parameter 0.6 of the diameter 1, e = 0.9: contact at t = 1.2 with
+// normal n = (-0.8, 0.6); v1 = (1,0) + 0.76 n, v2 = -0.76 n.
+TEST(FixHardSphere, ObliqueMatchesAnalyticForAnyTimestep)
+{
+  const double n[2] = {-0.8, 0.6};
+  for (double dt : {0.01, 0.03, 0.1}) {
+    Spheres s;
+    s.x = {{-2, 0.6, 0}, {0, 0, 0}};
+    s.v = {{1, 0, 0}, {0, 0, 0}};
+    s.dia = {1, 1};
+    s.m = {2, 2};
+    Lammps lmp;
+    lmp.commands(sphere_lines(s));
+    lmp.commands({"fix 1 all nve/sphere", "fix hs all hardsphere restitution 0.9",
+                  fmt("timestep %.17g", dt), fmt("run %.0f", std::round(3.0 / dt))});
+    const auto x = lmp.gather("x", 3), v = lmp.gather("v", 3);
+    const double v1[2] = {1 + 0.76 * n[0], 0.76 * n[1]}, v2[2] = {-0.76 * n[0], -0.76 * n[1]};
+    for (int d = 0; d < 2; ++d) {
+      EXPECT_NEAR(v[d], v1[d], 2e-15) << "dt " << dt;
+      EXPECT_NEAR(v[3 + d], v2[d], 2e-15) << "dt " << dt;
+    }
+    EXPECT_NEAR(x[0], -2 + 1.2 + v1[0] * 1.8, 1e-13);
+    EXPECT_NEAR(x[1], 0.6 + v1[1] * 1.8, 1e-13);
+    EXPECT_NEAR(x[3], v2[0] * 1.8, 1e-13);
+    EXPECT_NEAR(x[4], v2[1] * 1.8, 1e-13);
+  }
+}
+
+// Under a uniform field the pair's relative motion is straight: the outcome of an oblique,
+// unequal-mass collision under gravity does not depend on the timestep.
+TEST(FixHardSphere, CollisionUnderUniformGravityDoesNotDependOnTimestep)
+{
+  std::vector<std::vector<double>> xs, vs;
+  for (double dt : {0.004, 0.01, 0.025}) {
+    Spheres s;
+    s.x = {{-2, 0.3, 1.0}, {1, -0.2, 0.5}};
+    s.v = {{1.5, 0.1, 2.0}, {-1, 0.2, 1.8}};
+    s.dia = {1, 1.4};
+    s.m = {1, 2.5};
+    Lammps lmp;
+    lmp.commands(sphere_lines(s));
+    lmp.commands({"fix 1 all nve/sphere", "fix g all gravity 3.0 vector 0 0 -1",
+                  "fix hs all hardsphere restitution 0.7", fmt("timestep %.17g", dt),
+                  fmt("run %.0f", std::round(2.0 / dt))});
+    EXPECT_EQ(fixv(lmp, "hs", 1), 1.0) << "dt " << dt;
+    xs.push_back(lmp.gather("x", 3));
+    vs.push_back(lmp.gather("v", 3));
+  }
+  for (size_t k = 1; k < xs.size(); ++k) {
+    EXPECT_LT(max_abs_diff(xs[k], xs[0]), 1e-12);
+    EXPECT_LT(max_abs_diff(vs[k], vs[0]), 1e-12);
+  }
+  std::printf("[ HS       ] gravity + oblique collision, dt 0.004/0.01/0.025: max |dx| %.2g %.2g\n",
+              max_abs_diff(xs[1], xs[0]), max_abs_diff(xs[2], xs[0]));
+}
+
+// A ball dropped from h0 = 2 (above contact) onto the floor, g = 1, e = 0.8: after the n-th
+// bounce its mechanical energy, hence its apex height, is e^(2n) h0 - for every timestep.
+TEST(FixHardSphere, BouncingBallApexHeightsAreExactForAnyTimestep)
+{
+  const double e = 0.8, h0 = 2.0, R = 0.5, zlo = -10.0;
+  std::vector<std::vector<double>> apex_all;
+  for (double dt : {0.01, 0.013, 0.02}) {
+    Spheres s;
+    s.boundary = "p p f";
+    s.x = {{0.3, -0.2, zlo + R + h0}};
+    s.v = {{0.25, 0, 0}};
+    s.dia = {2 * R};
+    s.m = {1.7};
+    Lammps lmp;
+    lmp.commands(sphere_lines(s));
+    lmp.commands({"fix 1 all nve/sphere", "fix g all gravity 1.0 vector 0 0 -1",
+                  fmt("fix hs all hardsphere wall zlo %.17g", e), fmt("timestep %.17g", dt),
+                  "run 0"});
+    std::vector<double> apex;
+    double hprev = h0;
+    const int steps = (int) std::round(10.5 / dt);
+    for (int k = 0; k < steps; ++k) {
+      lmp.commands({"run 1 pre no post no"});
+      const auto x = lmp.gather("x", 3), v = lmp.gather("v", 3);
+      ASSERT_GE(x[2], zlo + R - 1e-12) << "below the floor at step " << k;
+      const double h = 0.5 * (v[2] * v[2]) + (x[2] - zlo - R);    // height of the apex
+      if (std::fabs(h - hprev) > 1e-6 * h0) apex.push_back(h);
+      hprev = h;
+    }
+    ASSERT_GE(apex.size(), 4u) << "dt " << dt;
+    for (size_t n = 0; n < apex.size(); ++n)
+      EXPECT_NEAR(apex[n], std::pow(e, 2.0 * (n + 1)) * h0, 1e-12) << "bounce " << n + 1;
+    EXPECT_EQ(fixv(lmp, "hs", 2), (double) apex.size());
+    // Energy removed: (1 - e^2) of the normal kinetic energy at each impact.
+    EXPECT_NEAR(fixv(lmp, "hs", 3), 1.7 * (h0 - apex.back()), 1e-12);
+    apex_all.push_back(apex);
+    std::printf("[ HS       ] bounce dt %.3f: apex heights", dt);
+    for (double a : apex) std::printf(" %.15f", a);
+    std::printf("\n");
+  }
+  for (size_t k = 1; k < apex_all.size(); ++k) {
+    ASSERT_EQ(apex_all[k].size(), apex_all[0].size());
+    for (size_t n = 0; n < apex_all[0].size(); ++n)
+      EXPECT_NEAR(apex_all[k][n], apex_all[0][n], 1e-13);
+  }
+}
+
+// Five equal spheres in a touching row, the first one arriving at speed 1, e = 1: the last
+// leaves at speed 1, the others stay at rest.
+TEST(FixHardSphere, NewtonsCradle)
+{
+  for (const char *order : {"parallel", "serial"}) {
+    Spheres s;
+    s.x = {{-3.5, 0, 0}, {-2, 0, 0}, {-1, 0, 0}, {0, 0, 0}, {1, 0, 0}};
+    s.v = {{1, 0, 0}, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
+    s.dia = {1, 1, 1, 1, 1};
+    s.m = {1, 1, 1, 1, 1};
+    Lammps lmp;
+    lmp.commands(sphere_lines(s));
+    lmp.commands({"fix 1 all nve/sphere", std::string("fix hs all hardsphere order ") + order,
+                  "timestep 0.02", "run 100"});
+    const auto v = lmp.gather("v", 3), x = lmp.gather("x", 3);
+    for (int i = 0; i < 4; ++i) EXPECT_NEAR(v[3 * i], 0.0, 1e-15) << order << " ball " << i + 1;
+    EXPECT_NEAR(v[12], 1.0, 1e-15) << order;
+    EXPECT_NEAR(x[12], 1.0 + 1.5, 1e-14) << order;    // left at t = 0.5, moved 1.5 since
+    EXPECT_NEAR(x[0], -3.0, 1e-14);                   // stopped at contact with ball 2
+    EXPECT_EQ(fixv(lmp, "hs", 1), 4.0) << order;
+  }
+}
+
+// The collision's virial r . dp / dt enters compute pressure at the step of the collision.
+TEST(FixHardSphere, CollisionVirialEntersThePressure)
+{
+  Spheres s;
+  s.x = {{-1, 0, 0}, {1, 0, 0}};
+  s.v = {{1, 0, 0}, {-1, 0, 0}};
+  s.dia = {1, 1};
+  s.m = {1, 3};
+  Lammps lmp;
+  lmp.commands(sphere_lines(s));
+  lmp.commands({"fix 1 all nve/sphere", "fix hs all hardsphere restitution 0.8",
+                "compute pv all pressure NULL virial", "thermo_style custom step press c_pv",
+                "timestep 0.1", "run 5"});
+  // Contact at t = 0.5 exactly: the end of step 5, which leaves it to the start of step 6.
+  EXPECT_EQ(fixv(lmp, "hs", 1), 0.0);
+  lmp.commands({"run 1"});
+  EXPECT_EQ(fixv(lmp, "hs", 0), 1.0);
+  // r . dp = |r| J with |r| = 1, J = (1 + e) m_eff |vn| = 1.8 * 0.75 * 2 = 2.7.
+  const double vol = 20.0 * 20.0 * 20.0;
+  EXPECT_NEAR(lmp.compute_scalar("pv"), 2.7 / 0.1 / (3 * vol), 1e-15);
+  lmp.commands({"run 1"});
+  EXPECT_EQ(lmp.compute_scalar("pv"), 0.0);
+}
+
+// 400 spheres in a box with floor and roof under gravity, 3000 steps: after every step no pair
+// is closer than its contact distance by more than 1e-9 of it (the fix's overlap check, which
+// stops the run, is that test; the final state is checked here too), tens of thousands of
+// collisions; serial and parallel agree bitwise.
+TEST(FixHardSphere, DenseRunHasNoOverlapsAndSerialEqualsParallel)
+{
+  std::vector<std::string> base = {
+      "units lj",
+      "atom_style sphere",
+      "atom_modify map array",
+      "boundary p p f",
+      "region box block 0 11 0 11 0 11",
+      "create_box 1 box",
+      "lattice sc 0.75131480090157776 origin 0.5 0.5 0.5",    // spacing 1.1
+      "region fill block 0 11 0 11 0 4.4 units box",
+      "create_atoms 1 region fill",
+      "set type 1 diameter 1.0",
+      "set type 1 density 1.9",
+      "velocity all create 4.0 4928459 loop geom",
+      "comm_modify cutoff 3.5",
+      "neigh_modify every 1 delay 0 check yes",
+      "fix 1 all nve/sphere",
+      "fix g all gravity 1.0 vector 0 0 -1",
+      "thermo_modify norm no",
+      "timestep 0.01"};
+  std::vector<double> x[2], v[2];
+  double coll[2], maxev[2];
+  int k = 0;
+  for (const char *order : {"parallel", "serial"}) {
+    Lammps lmp;
+    lmp.commands(base);
+    lmp.commands({std::string("fix hs all hardsphere restitution 0.95 wall zlo 0.9 wall zhi 1.0 "
+                              "order ") +
+                      order,
+                  "run 3000"});
+    x[k] = lmp.gather("x", 3);
+    v[k] = lmp.gather("v", 3);
+    coll[k] = fixv(lmp, "hs", 1);
+    maxev[k] = fixv(lmp, "hs", 4);
+    // Explicit all-pairs check of the final state (nearest image in x and y).
+    const long n = lmp.natoms();
+    double worst = 1e300;
+    for (long i = 0; i < n; ++i)
+      for (long j = i + 1; j < n; ++j) {
+        double d2 = 0;
+        for (int d = 0; d < 3; ++d) {
+          double dx = x[k][3 * i + d] - x[k][3 * j + d];
+          if (d < 2) dx -= 11.0 * std::round(dx / 11.0);
+          d2 += dx * dx;
+        }
+        worst = std::min(worst, std::sqrt(d2) - 1.0);
+      }
+    EXPECT_GT(worst, -1e-9) << order;
+    std::printf("[ HS       ] dense %s: %ld spheres, 3000 steps, %.0f collisions (%.2f per "
+                "sphere per step), at most %.0f events in a step, closest pair %.3g from "
+                "contact\n",
+                order, n, coll[k], coll[k] / n / 3000.0, maxev[k], worst);
+    EXPECT_GT(coll[k] / 3000.0, 10.0) << "too few collisions per step to mean anything";
+    ++k;
+  }
+  EXPECT_EQ(coll[0], coll[1]);
+  EXPECT_EQ(max_abs_diff(x[0], x[1]), 0.0);
+  EXPECT_EQ(max_abs_diff(v[0], v[1]), 0.0);
+}
+
+TEST(FixHardSphere, RestartContinuationEqualsUninterruptedRun)
+{
+  const std::string file = "fix_hardsphere_test.restart";
+  std::vector<std::string> base = {"units lj",
+                                   "atom_style sphere",
+                                   "atom_modify map array",
+                                   "boundary p p f",
+                                   "region box block 0 8.8 0 8.8 0 8.8",
+                                   "create_box 1 box",
+                                   "lattice sc 0.75131480090157776 origin 0.5 0.5 0.5",
+                                   "region fill block 0 8.8 0 8.8 0 3.3 units box",
+                                   "create_atoms 1 region fill",
+                                   "set type 1 diameter 1.0",
+                                   "set type 1 density 1.9",
+                                   "velocity all create 2.0 87287 loop geom",
+                                   "comm_modify cutoff 3.5",
+                                   "neigh_modify every 1 delay 0 check yes",
+                                   "thermo_modify norm no",
+                                   "timestep 0.005"};
+  const std::vector<std::string> fixes = {
+      "fix 1 all nve/sphere", "fix g all gravity 1.0 vector 0 0 -1",
+      "fix hs all hardsphere restitution 0.6 wall zlo 0.7 wall zhi 1.0"};
+  std::vector<double> xa, va, fa(5), xb, vb, fb(5);
+  {
+    Lammps lmp;
+    lmp.commands(base);
+    lmp.commands(fixes);
+    lmp.commands({"run 300", "write_restart " + file, "run 300"});
+    xa = lmp.gather("x", 3);
+    va = lmp.gather("v", 3);
+    for (int i = 0; i < 5; ++i) fa[i] = fixv(lmp, "hs", i);
+  }
+  {
+    Lammps lmp;
+    lmp.commands({"read_restart " + file, "comm_modify cutoff 3.5",
+                  "neigh_modify every 1 delay 0 check yes", "thermo_modify norm no",
+                  "timestep 0.005"});
+    lmp.commands(fixes);
+    lmp.commands({"run 300"});
+    xb = lmp.gather("x", 3);
+    vb = lmp.gather("v", 3);
+    for (int i = 0; i < 5; ++i) fb[i] = fixv(lmp, "hs", i);
+  }
+  std::remove(file.c_str());
+  EXPECT_GT(fa[1], 1000.0);
+  EXPECT_LT(max_abs_diff(xa, xb), 1e-12);
+  EXPECT_LT(max_abs_diff(va, vb), 1e-12);
+  for (int i = 0; i < 5; ++i)
+    EXPECT_NEAR(fb[i], fa[i], 1e-9 * std::fabs(fa[i])) << "f_hs[" << i + 1 << "]";
+  std::printf("[ HS       ] restart: max |dx| %.2g |dv| %.2g after 300 + 300 steps, %.0f "
+              "collisions\n",
+              max_abs_diff(xa, xb), max_abs_diff(va, vb), fa[1]);
+}
+
+TEST(FixHardSphere, BadInputStopsWithANamedError)
+{
+  const std::vector<std::string> box = {"units lj",
+                                        "atom_style sphere",
+                                        "boundary p p f",
+                                        "region box block 0 10 0 10 0 10",
+                                        "create_box 1 box",
+                                        "create_atoms 1 single 5 5 5",
+                                        "create_atoms 1 single 5.5 5 5",
+                                        "comm_modify cutoff 4",
+                                        "neigh_modify every 1 delay 0 check yes",
+                                        "fix 1 all nve/sphere"};
+  auto first_error = [&](const std::vector<std::string> &extra) {
+    Lammps lmp;
+    std::string err = lmp.first_error(box);
+    if (!err.empty()) return "setup failed: " + err;
+    return lmp.first_error(extra);
+  };
+  EXPECT_THAT(first_error({"fix hs all hardsphere bounce 1"}), HasSubstr("unknown keyword bounce"));
+  EXPECT_THAT(first_error({"fix hs all hardsphere restitution 1.5"}),
+              HasSubstr("restitution must be between 0 and 1"));
+  EXPECT_THAT(first_error({"fix hs all hardsphere restitution/pair 1 1 -0.1"}),
+              HasSubstr("restitution must be between 0 and 1"));
+  EXPECT_THAT(first_error({"fix hs all hardsphere wall xlo 0.9", "run 0"}),
+              HasSubstr("wall xlo is on a periodic face"));
+  EXPECT_THAT(first_error({"fix hs all hardsphere wall zhi 0.9 order random"}),
+              HasSubstr("order must be parallel or serial"));
+  EXPECT_THAT(first_error({"fix hs all hardsphere maxevents 10 maybe"}),
+              HasSubstr("maxevents takes N error|warn"));
+  // The two atoms 0.5 apart with diameter 1 overlap.
+  EXPECT_THAT(
+      first_error({"fix hs all hardsphere", "run 0"}),
+      HasSubstr("atoms 1 and 2 overlap at step 0: centre distance 0.5, contact distance 1"));
+  EXPECT_THAT(first_error({"comm_modify cutoff 2", "fix hs all hardsphere", "run 0"}),
+              HasSubstr("use 'comm_modify cutoff 2.3'"));
+  EXPECT_THAT(first_error({"neigh_modify delay 5", "fix hs all hardsphere", "run 0"}),
+              HasSubstr("neigh_modify every 1 delay 0"));
+  {
+    Lammps lmp;
+    const std::string err =
+        lmp.first_error({"units lj", "atom_style atomic", "region box block 0 10 0 10 0 10",
+                         "create_box 1 box", "fix hs all hardsphere"});
+    EXPECT_THAT(err, HasSubstr("requires atom style sphere"));
+  }
+  {
+    Lammps lmp;
+    const std::string err = lmp.first_error(
+        {"units lj", "atom_style sphere", "boundary p p s", "region box block 0 10 0 10 0 10",
+         "create_box 1 box", "create_atoms 1 single 5 5 5", "comm_modify cutoff 4",
+         "neigh_modify every 1 delay 0 check yes", "fix hs all hardsphere wall zhi 1.0", "run 0"});
+    EXPECT_THAT(err, HasSubstr("wall zhi needs a fixed boundary ('f')"));
+  }
+  // Atoms too fast for the neighbor list's reach.
+  {
+    Lammps lmp;
+    lmp.commands(box);
+    const std::string err = lmp.first_error({"set atom 2 x 7", "velocity all set 30 0 0",
+                                             "fix hs all hardsphere", "timestep 0.1", "run 1"});
+    EXPECT_THAT(err, HasSubstr("more than the reach 0.5 its neighbor list covers"));
+  }
+  // More events than allowed in a step: error, or warn and go on.
+  {
+    Lammps lmp;
+    lmp.commands(box);
+    const std::string err = lmp.first_error(
+        {"set atom 2 x 6.5", "velocity all set 0 0 0", "group one id 1", "velocity one set 1 0 0",
+         "fix hs all hardsphere maxevents 1 error", "timestep 0.01", "run 60", "set atom 1 x 3",
+         "set atom 2 x 4.2", "velocity one set 3 0 0", "run 30"});
+    // One event per step is within the cap.
+    EXPECT_EQ(err, "");
+  }
+  {
+    Lammps lmp;
+    lmp.commands(box);
+    // Three in a row: 1 hits 2, which hits 3 in the same step.
+    const std::string err =
+        lmp.first_error({"set atom 2 x 6.0", "create_atoms 1 single 7.0 5 5",
+                         "velocity all set 0 0 0", "group one id 1", "velocity one set 1 0 0",
+                         "fix hs all hardsphere maxevents 1 error", "timestep 0.01", "run 100"});
+    EXPECT_THAT(err, HasSubstr("needed more than maxevents = 1 events"));
+  }
+  {
+    Lammps lmp;
+    lmp.commands(box);
+    const std::string err = lmp.first_error(
+        {"set atom 2 x 6.0", "create_atoms 1 single 7.0 5 5", "velocity all set 0 0 0",
+         "group one id 1", "velocity one set 1 0 0",
+         "fix hs all hardsphere maxevents 1 warn overlap push", "timestep 0.01", "run 100"});
+    EXPECT_EQ(err, "") << "warn goes on (the collision left over is an overlap next step)";
+  }
+  // overlap push separates the pair instead, conserving the centre of mass.
+  {
+    Lammps lmp;
+    lmp.commands(box);
+    lmp.commands({"fix hs all hardsphere overlap push", "run 0"});
+    const auto x = lmp.gather("x", 3);
+    EXPECT_GE(x[3] - x[0], 1.0);
+    EXPECT_NEAR(x[3] - x[0], 1.0, 1e-8);
+    EXPECT_NEAR(0.5 * (x[0] + x[3]), 5.25, 1e-12);
+  }
+}
+
+// A pile poured onto the floor with e = 0.5 and the default guards comes to rest and stays
+// there: bounded events per step (no inelastic collapse, no runaway), kinetic energy of order
+// N m (g dt)^2, its top fixed to within slow compaction.
+TEST(FixHardSphere, SettledPileStaysAtRestWithDefaultGuards)
+{
+  Lammps lmp;
+  lmp.commands({"units lj",
+                "atom_style sphere",
+                "atom_modify map array",
+                "boundary p p f",
+                "region box block 0 8.4 0 8.4 0 30",
+                "create_box 1 box",
+                "lattice sc 0.5787037037037037 origin 0.5 0.5 0.5",    // spacing 1.2
+                "region block block 0 8.4 0 8.4 5 12.2 units box",
+                "create_atoms 1 region block",
+                "set type 1 diameter 1.0",
+                "set type 1 mass 1.0",
+                "velocity all create 0.05 87287 loop geom",
+                "comm_modify cutoff 2.5",
+                "neigh_modify every 1 delay 0 check yes",
+                "fix 1 all nve/sphere",
+                "fix g all gravity 1.0 vector 0 0 -1",
+                "fix hs all hardsphere restitution 0.5 wall zlo 0.5 wall zhi 0.5",
+                "compute zmax all reduce max z",
+                "thermo_style custom step ke c_zmax",
+                "thermo_modify norm no",
+                "timestep 0.01",
+                "run 4000"});
+  const long n = lmp.natoms();
+  const double ke1 = lmp.thermo("ke"), top1 = lmp.compute_scalar("zmax");
+  const double ev1 = fixv(lmp, "hs", 5);
+  lmp.commands({"run 1000"});
+  const double ke2 = lmp.thermo("ke"), top2 = lmp.compute_scalar("zmax");
+  const double per_step = (fixv(lmp, "hs", 5) - ev1) / 1000.0;
+  const double scale = n * 1.0 * (1.0 * 0.01) * (1.0 * 0.01);    // N m (g dt)^2
+  std::printf("[ HS       ] pile of %ld: KE %.3g and %.3g N m (g dt)^2 after 4000 and 5000 steps, "
+              "top %.4f -> %.4f, %.2f events per sphere per step, most in a step %.0f\n",
+              n, ke1 / scale, ke2 / scale, top1, top2, per_step / n, fixv(lmp, "hs", 4));
+  EXPECT_GT(n, 200);
+  // The residual agitation of a settled pile is of order m (g dt)^2 per sphere (1 to 12 were
+  // seen), some 1e-4 of the energy of the fall.
+  EXPECT_LT(ke1, 30.0 * scale);
+  EXPECT_LT(ke2, 30.0 * scale);
+  EXPECT_LT(std::fabs(top2 - top1), 0.05);
+  EXPECT_LT(per_step, 8.0 * n);
+  EXPECT_LT(fixv(lmp, "hs", 4), 20.0 * n);
+}

@@ -1,0 +1,138 @@
+// fix hardsphere under mpirun -np 1, 2, 4: the same system on all ranks of MPI_COMM_WORLD and
+// on rank 0 alone gives the same trajectory (collisions between atoms of different ranks are
+// resolved identically on every rank, in atom-ID order), in both orders; the missing
+// 'comm_modify vel yes' is reported on more than one rank.
+#include "harness.h"
+
+#define LAMMPS_LIB_MPI
+#include "library.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <mpi.h>
+#include <string>
+#include <vector>
+
+using hsgpu_test::Lammps;
+using ::testing::HasSubstr;
+
+namespace {
+
+double fixv(Lammps &lmp, const char *id, int i)
+{
+  auto *p =
+      (double *) lammps_extract_fix(lmp.handle(), id, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, i, 0);
+  if (!p) return NAN;
+  const double v = *p;
+  lammps_free(p);
+  return v;
+}
+
+struct Snapshot {
+  std::vector<double> x, v;
+  double f[6];
+  double press;
+};
+
+// 500 spheres of two sizes in a box periodic in x and y with floor and roof, under gravity.
+// Atoms are placed one by one and their velocities set from their IDs, so that the initial
+// state does not depend on the decomposition (create_atoms on a region numbers atoms per rank,
+// velocity create rescales with a sum over ranks).
+Snapshot run_on(MPI_Comm comm, const std::string &order, int steps)
+{
+  Lammps lmp(comm);
+  lmp.commands({"units lj", "atom_style sphere", "atom_modify map array", "boundary p p f",
+                "region box block 0 11 0 11 0 11", "create_box 2 box"});
+  std::vector<std::string> atoms;
+  for (int iz = 0; iz < 5; ++iz)
+    for (int iy = 0; iy < 10; ++iy)
+      for (int ix = 0; ix < 10; ++ix) {
+        char line[160];
+        std::snprintf(line, sizeof(line), "create_atoms %d single %.17g %.17g %.17g units box",
+                      1 + (ix + iy + iz) % 2, 0.55 + 1.1 * ix, 0.55 + 1.1 * iy, 0.55 + 1.1 * iz);
+        atoms.push_back(line);
+      }
+  lmp.commands(atoms);
+  lmp.commands({"set type 1 diameter 1.0", "set type 1 density 1.9", "set type 2 diameter 0.8",
+                "set type 2 density 3.0", "variable vx atom 3.0*sin(17.31*id)",
+                "variable vy atom 3.0*cos(7.77*id)", "variable vz atom 3.0*sin(3.3*id+1.1)",
+                "velocity all set v_vx v_vy v_vz", "comm_modify cutoff 3.5 vel yes",
+                "neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere",
+                "fix g all gravity 1.0 vector 0 0 -1",
+                "fix hs all hardsphere restitution 0.95 restitution/pair 1 2 0.8 wall zlo 0.9 "
+                "wall zhi 1.0 order " +
+                    order,
+                "compute p all pressure NULL virial", "thermo_style custom step c_p",
+                "thermo_modify norm no", "timestep 0.01", "run " + std::to_string(steps)});
+  Snapshot s;
+  s.x = lmp.gather("x", 3);
+  s.v = lmp.gather("v", 3);
+  for (int i = 0; i < 6; ++i) s.f[i] = fixv(lmp, "hs", i);
+  s.press = lmp.compute_scalar("p");
+  return s;
+}
+
+double max_abs_diff(const std::vector<double> &a, const std::vector<double> &b)
+{
+  double w = 0.0;
+  for (size_t i = 0; i < a.size(); ++i) w = std::max(w, std::fabs(a[i] - b[i]));
+  return w;
+}
+
+void compare(const std::string &world_order, const std::string &single_order)
+{
+  int me = 0, np = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  const int steps = 400;
+  const Snapshot world = run_on(MPI_COMM_WORLD, world_order, steps);
+  if (me == 0) {
+    const Snapshot single = run_on(MPI_COMM_SELF, single_order, steps);
+    ASSERT_EQ(world.x.size(), single.x.size());
+    const double dx = max_abs_diff(world.x, single.x), dv = max_abs_diff(world.v, single.v);
+    EXPECT_LT(dx, 1e-10);
+    EXPECT_LT(dv, 1e-10);
+    EXPECT_EQ(world.f[1], single.f[1]) << "collisions in total";
+    EXPECT_EQ(world.f[2], single.f[2]) << "wall collisions";
+    EXPECT_EQ(world.f[4], single.f[4]) << "most events in a step";
+    EXPECT_NEAR(world.f[3], single.f[3], 1e-10 * std::fabs(single.f[3])) << "energy removed";
+    EXPECT_NEAR(world.press, single.press, 1e-10 * std::fabs(single.press));
+    EXPECT_GT(single.f[1], 5000.0);
+    std::printf("[ MPI      ] %d ranks (%s) vs 1 (%s), %d steps, %.0f collisions: max |dx| %.2g "
+                "|dv| %.2g, virial pressure %.17g vs %.17g\n",
+                np, world_order.c_str(), single_order.c_str(), steps, single.f[1], dx, dv,
+                world.press, single.press);
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+}
+
+}    // namespace
+
+TEST(FixHardSphereMPI, ParallelOrderAgreesWithSingleRank)
+{
+  compare("parallel", "parallel");
+}
+
+TEST(FixHardSphereMPI, SerialOrderOnAllRanksAgreesWithParallelOnOne)
+{
+  compare("serial", "parallel");
+}
+
+TEST(FixHardSphereMPI, MissingGhostVelocitiesAreReportedOnSeveralRanks)
+{
+  int np = 1;
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  Lammps lmp;
+  const std::string err = lmp.first_error(
+      {"units lj", "atom_style sphere", "boundary p p p", "region box block 0 10 0 10 0 10",
+       "create_box 1 box", "create_atoms 1 single 2 2 2", "create_atoms 1 single 7 7 7",
+       "comm_modify cutoff 3", "neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere",
+       "fix hs all hardsphere", "run 1"});
+  if (np > 1)
+    EXPECT_THAT(err, HasSubstr("requires 'comm_modify vel yes' when running on more than one"));
+  else
+    EXPECT_EQ(err, "") << "one rank needs no ghost velocities";
+}
