@@ -27,7 +27,7 @@ PairGravity::PairGravity(LAMMPS *lmp) :
     Pair(lmp), gravity_g(0.0), softening_eps(0.0), cutoff(0.0), gather(nullptr), gpu_requested(0),
     precision((int) HSGPU::GPU::Precision::Mixed), device_request(-1), engine(nullptr),
     t_gather(0.0), t_upload(0.0), t_kernel(0.0), t_total(0.0), ncalls(0),
-    timing(false)
+    timing(false), timing_all(false)
 {
   single_enable = 0;
   restartinfo = 1;
@@ -38,11 +38,17 @@ PairGravity::PairGravity(LAMMPS *lmp) :
   gather = new AtomGather(lmp, "gravity");
   const char *t = std::getenv("HSGPU_TIMING");
   timing = t && *t && strcmp(t, "0") != 0;
+  timing_all = timing && strcmp(t, "all") == 0;
 }
 
 PairGravity::~PairGravity()
 {
-  if (timing && comm->me == 0 && ncalls > 0)
+  if (timing && timing_all && ncalls > 0)
+    printf("Pair gravity timing on rank %d over %ld calls (s/call): total %.4g, gather %.4g, "
+           "device transfers+launch %.4g, kernels %.4g\n",
+           comm->me, ncalls, t_total / ncalls, t_gather / ncalls, t_upload / ncalls,
+           t_kernel / ncalls);
+  else if (timing && comm->me == 0 && ncalls > 0)
     utils::logmesg(lmp,
                    "Pair gravity timing on rank 0 over {} calls (s/call): total {:.4g}, gather "
                    "{:.4g}, device transfers+launch {:.4g}, kernels {:.4g}\n",

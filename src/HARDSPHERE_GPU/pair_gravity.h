@@ -55,10 +55,11 @@ class PairGravity : public Pair {
   int device_request;   // -1: pick from the node-local rank
   HSGPU::GPU::GravityEngine *engine;    // null: CPU path
   std::vector<double> gpu_f, gpu_e, gpu_v;
-  // HSGPU_TIMING=1 in the environment: seconds spent per phase, printed by rank 0 at the end
+  // HSGPU_TIMING=1 in the environment: seconds spent per phase, printed by rank 0 at the end;
+  // HSGPU_TIMING=all: printed by every rank
   double t_gather, t_upload, t_kernel, t_total;
   long ncalls;
-  bool timing;
+  bool timing, timing_all;
 
   struct TargetSums {
     double e;

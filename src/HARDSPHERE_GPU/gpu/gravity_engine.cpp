@@ -14,6 +14,8 @@ namespace HSGPU {
 namespace GPU {
 
   namespace {
+    constexpr int SORT_INTERVAL = 16;
+
     void check(cudaError_t err, const char *what)
     {
       if (err != cudaSuccess)
@@ -52,6 +54,10 @@ namespace GPU {
     cudaEvent_t start = nullptr, stop = nullptr;
     Buffer x, m, src, tidx, scratch, f, e, v;
     Buffer keys, tsorted, slot, sort_temp;    // Mixed: targets in Z-curve order
+    // The Z-curve order is redone when the targets change and otherwise every
+    // SORT_INTERVAL calls: atoms move little in between, so blocks stay compact.
+    bool sorted = false;
+    int calls_since_sort = 0;
     long nsrc = 0, ntgt = 0;
     double max_mass = 0.0;
     std::vector<int> host_tidx;
@@ -128,6 +134,7 @@ namespace GPU {
     // until then, which it does (it only changes in the next set_targets call, after a sync).
     check(cudaStreamSynchronize(impl->stream), "cudaStreamSynchronize(targets)");
     impl->ntgt = ntgt;
+    impl->sorted = false;
   }
 
   void GravityEngine::compute(Precision p, const GravityArgs &a, double *f, double *e, double *v,
@@ -147,7 +154,8 @@ namespace GPU {
                        impl->src.ptr, impl->stream),
           "pack_sources kernel");
     const size_t temp = (p == Precision::Mixed && nt > 0) ? sort_temp_bytes(nt) : 0;
-    if (temp > 0) {
+    const bool resort = temp > 0 && (!impl->sorted || impl->calls_since_sort >= SORT_INTERVAL);
+    if (resort) {
       impl->keys.reserve(2 * nt * sizeof(unsigned), "cudaMalloc(sort keys)");
       impl->tsorted.reserve(nt * sizeof(int), "cudaMalloc(sorted targets)");
       impl->slot.reserve(nt * sizeof(int), "cudaMalloc(target slots)");
@@ -156,11 +164,16 @@ namespace GPU {
     check(cudaEventRecord(impl->start, impl->stream), "cudaEventRecord");
     const int *targets = (const int *) impl->tidx.ptr;
     const int *slot = nullptr;
-    if (temp > 0) {
+    if (resort) {
+      impl->sorted = true;
+      impl->calls_since_sort = 0;
       check(sort_targets((const double *) impl->x.ptr, targets, nt, a, (unsigned *) impl->keys.ptr,
                          (int *) impl->tsorted.ptr, (int *) impl->slot.ptr, impl->sort_temp.ptr,
                          temp, impl->stream),
             "target sort");
+    }
+    if (temp > 0) {
+      ++impl->calls_since_sort;
       targets = (const int *) impl->tsorted.ptr;
       slot = (const int *) impl->slot.ptr;
     }
