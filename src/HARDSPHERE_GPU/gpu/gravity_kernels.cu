@@ -514,16 +514,18 @@ namespace GPU {
   {
     const bool hot = !(a.periodic[0] || a.periodic[1] || a.periodic[2]) && !a.energy_virial &&
         !(a.cutsq > 0.0);
-    // Shapes that measured fastest on an H200 (doc/bench_gravity_gpu.md, --shapes sweep).
+    // Shapes that measured fastest on an H200 (doc/bench_gravity_gpu.md, --shapes sweep),
+    // picked by the system size nsrc, which all MPI ranks share: choosing by a rank's own
+    // target count put ranks on either side of a threshold onto different kernels.
     GravityShape s;
     if (p == Precision::Double) {
       s.block = 256;
       s.ilp = 1;
     } else if (p == Precision::Mixed) {
-      s.block = (ntgt >= 262144) ? 256 : 128;
-      s.ilp = (ntgt >= 262144) ? 2 : 1;
+      s.block = (nsrc >= 262144) ? 256 : 128;
+      s.ilp = (nsrc >= 262144) ? 2 : 1;
     } else {
-      s.block = (ntgt >= 32768) ? 256 : 128;
+      s.block = (nsrc >= 32768) ? 256 : 128;
       s.ilp = 2;
     }
     s = compiled_shape(p, s, hot);
