@@ -128,13 +128,13 @@ double sample_error(const Cloud &c, const std::vector<double> &f, int samples)
   return (double) std::sqrt(num / den);
 }
 
-#define CHECK(call)                                                                                \
-  do {                                                                                             \
-    cudaError_t e_ = (call);                                                                       \
-    if (e_ != cudaSuccess) {                                                                       \
-      std::fprintf(stderr, "%s: %s\n", #call, cudaGetErrorString(e_));                            \
-      std::exit(1);                                                                                \
-    }                                                                                              \
+#define CHECK(call)                                                    \
+  do {                                                                 \
+    cudaError_t e_ = (call);                                           \
+    if (e_ != cudaSuccess) {                                           \
+      std::fprintf(stderr, "%s: %s\n", #call, cudaGetErrorString(e_)); \
+      std::exit(1);                                                    \
+    }                                                                  \
   } while (0)
 
 double time_reference(const Cloud &c, int reps)
@@ -176,11 +176,16 @@ int main(int argc, char **argv)
   long nmin = 1024, nmax = 1048576, shapes_n = 0;
   int reps = 5, device = 0;
   for (int i = 1; i + 1 < argc; i += 2) {
-    if (!std::strcmp(argv[i], "--nmin")) nmin = std::atol(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--nmax")) nmax = std::atol(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--reps")) reps = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--shapes")) shapes_n = std::atol(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--device")) device = std::atoi(argv[i + 1]);
+    if (!std::strcmp(argv[i], "--nmin"))
+      nmin = std::atol(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--nmax"))
+      nmax = std::atol(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--reps"))
+      reps = std::atoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--shapes"))
+      shapes_n = std::atol(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--device"))
+      device = std::atoi(argv[i + 1]);
     else {
       std::fprintf(stderr, "unknown option %s\n", argv[i]);
       return 2;
@@ -199,7 +204,8 @@ int main(int argc, char **argv)
     eng.set_sources(shapes_n, c.x.data(), c.m.data(), true);
     eng.set_targets(shapes_n, c.all.data());
     std::vector<double> f(3 * shapes_n);
-    std::printf("\n| precision | block | ilp | splits | ms | interactions/s |\n|---|---|---|---|---|---|\n");
+    std::printf("\n| precision | block | ilp | splits | ms | interactions/s "
+                "|\n|---|---|---|---|---|---|\n");
     const int shapes[][2] = {{128, 1}, {128, 2}, {128, 4}, {256, 1}, {256, 2}};
     for (Precision p : precs)
       for (auto &sh : shapes)

@@ -114,9 +114,8 @@ void AtomGather::gather()
     for (long k = 0; k < n; ++k) order[(long) recvbuf[npack * k] - 1] = k;
   } else {
     for (long k = 0; k < n; ++k) order[k] = k;
-    std::sort(order.begin(), order.end(), [this, npack](long a, long b) {
-      return recvbuf[npack * a] < recvbuf[npack * b];
-    });
+    std::sort(order.begin(), order.end(),
+              [this, npack](long a, long b) { return recvbuf[npack * a] < recvbuf[npack * b]; });
     tags_sorted.resize(n);
     for (long s = 0; s < n; ++s) tags_sorted[s] = recvbuf[npack * order[s]];
   }

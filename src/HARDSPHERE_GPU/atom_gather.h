@@ -37,10 +37,10 @@ class AtomGather : protected Pointers {
   std::vector<double> sendbuf, recvbuf;
   std::vector<int> counts, displs;
   std::vector<long> order;
-  bool direct = false;               // atom IDs are exactly 1..ntotal
+  bool direct = false;    // atom IDs are exactly 1..ntotal
   std::vector<double> tags_sorted;
-  std::vector<tagint> last_tag;      // owned atoms' IDs and masses at the previous gather:
-  std::vector<double> last_mass;     // masses travel only when these change on some rank
+  std::vector<tagint> last_tag;     // owned atoms' IDs and masses at the previous gather:
+  std::vector<double> last_mass;    // masses travel only when these change on some rank
 };
 
 }    // namespace LAMMPS_NS

@@ -26,8 +26,8 @@ using namespace LAMMPS_NS;
 PairGravity::PairGravity(LAMMPS *lmp) :
     Pair(lmp), gravity_g(0.0), softening_eps(0.0), cutoff(0.0), gather(nullptr), gpu_requested(0),
     precision((int) HSGPU::GPU::Precision::Mixed), device_request(-1), engine(nullptr),
-    t_gather(0.0), t_upload(0.0), t_kernel(0.0), t_total(0.0), ncalls(0),
-    timing(false), timing_all(false)
+    t_gather(0.0), t_upload(0.0), t_kernel(0.0), t_total(0.0), ncalls(0), timing(false),
+    timing_all(false)
 {
   single_enable = 0;
   restartinfo = 1;
@@ -97,7 +97,8 @@ void PairGravity::settings(int narg, char **arg)
         error->all(FLERR, "Illegal pair_style gravity command: cutoff must be > 0");
       iarg += 2;
     } else if (strcmp(arg[iarg], "gpu") == 0) {
-      if (iarg + 2 > narg) error->all(FLERR, "Illegal pair_style gravity command: gpu needs yes or no");
+      if (iarg + 2 > narg)
+        error->all(FLERR, "Illegal pair_style gravity command: gpu needs yes or no");
       const std::string v = arg[iarg + 1];
       if (v == "yes" || v == "on" || v == "true" || v == "1")
         gpu_requested = 1;
@@ -108,7 +109,8 @@ void PairGravity::settings(int narg, char **arg)
       iarg += 2;
     } else if (strcmp(arg[iarg], "precision") == 0) {
       if (iarg + 2 > narg)
-        error->all(FLERR, "Illegal pair_style gravity command: precision needs single, mixed or double");
+        error->all(FLERR,
+                   "Illegal pair_style gravity command: precision needs single, mixed or double");
       if (strcmp(arg[iarg + 1], "single") == 0)
         precision = (int) HSGPU::GPU::Precision::Single;
       else if (strcmp(arg[iarg + 1], "mixed") == 0)
@@ -116,7 +118,8 @@ void PairGravity::settings(int narg, char **arg)
       else if (strcmp(arg[iarg + 1], "double") == 0)
         precision = (int) HSGPU::GPU::Precision::Double;
       else
-        error->all(FLERR, "Illegal pair_style gravity command: unknown precision {}", arg[iarg + 1]);
+        error->all(FLERR, "Illegal pair_style gravity command: unknown precision {}",
+                   arg[iarg + 1]);
       iarg += 2;
     } else if (strcmp(arg[iarg], "device") == 0) {
       if (iarg + 2 > narg)
@@ -290,8 +293,7 @@ void PairGravity::compute_gpu(int nlocal)
     engine->set_sources(gather->ntotal, gather->x.data(), gather->mass.data(),
                         gather->changed_masses);
     engine->set_targets(nlocal, gather->index.data());
-    engine->compute((HSGPU::GPU::Precision) precision, a, gpu_f.data(), gpu_e.data(),
-                    gpu_v.data());
+    engine->compute((HSGPU::GPU::Precision) precision, a, gpu_f.data(), gpu_e.data(), gpu_v.data());
     if (timing) {
       const double k = 1e-3 * engine->last_kernel_ms();
       t_kernel += k;

@@ -50,9 +50,9 @@ class PairGravity : public Pair {
   double softening_eps;    // Plummer softening length (0 = none)
   double cutoff;           // interaction cutoff (0 = none)
   AtomGather *gather;
-  int gpu_requested;    // gpu yes
-  int precision;        // HSGPU::GPU::Precision as int
-  int device_request;   // -1: pick from the node-local rank
+  int gpu_requested;                    // gpu yes
+  int precision;                        // HSGPU::GPU::Precision as int
+  int device_request;                   // -1: pick from the node-local rank
   HSGPU::GPU::GravityEngine *engine;    // null: CPU path
   std::vector<double> gpu_f, gpu_e, gpu_v;
   // HSGPU_TIMING=1 in the environment: seconds spent per phase, printed by rank 0 at the end;

@@ -71,8 +71,8 @@ Result cpu_core(const Cloud &s, const std::vector<long> &tgt, double G, double e
   Result r;
   for (long t : tgt) {
     HSGPU::Gravity::Accum a;
-    HSGPU::Gravity::sum_on_target(&s.x[3 * t], s.m[t], t, s.x.data(), s.m.data(),
-                                  (long) s.m.size(), s.box, p, a);
+    HSGPU::Gravity::sum_on_target(&s.x[3 * t], s.m[t], t, s.x.data(), s.m.data(), (long) s.m.size(),
+                                  s.box, p, a);
     r.f.insert(r.f.end(), a.f, a.f + 3);
     r.e.push_back(a.e);
     r.v.insert(r.v.end(), a.v, a.v + 6);
@@ -87,7 +87,8 @@ Result cpu_core(const Cloud &s, const std::vector<long> &tgt, double G, double e
       for (int d = 0; d < 3; ++d) {
         const double dd = s.x[3 * j + d] - s.x[3 * t + d];
         r2 += dd * dd;
-        if (s.box.periodic[d] && std::fabs(std::fabs(dd) - 0.5 * s.box.prd[d]) < 1e-5 * s.box.prd[d])
+        if (s.box.periodic[d] &&
+            std::fabs(std::fabs(dd) - 0.5 * s.box.prd[d]) < 1e-5 * s.box.prd[d])
           ambiguous = true;
       }
       if (!ambiguous) continue;
@@ -140,9 +141,12 @@ double rel_err(const std::vector<double> &a, const std::vector<double> &b,
 double tolerance(Precision p)
 {
   switch (p) {
-    case Precision::Single: return 2e-4;
-    case Precision::Mixed: return 2e-5;
-    default: return 1e-12;
+  case Precision::Single:
+    return 2e-4;
+  case Precision::Mixed:
+    return 2e-5;
+  default:
+    return 1e-12;
   }
 }
 
@@ -198,7 +202,8 @@ TEST_P(GravityGpu, TinySystems)
 
 TEST_P(GravityGpu, RandomOpenBox)
 {
-  for (long n : {97L, 1000L, 1031L, 4099L}) check({n, false, false, 0.0, 0.05, 20.0}, false, false, 10 + n);
+  for (long n : {97L, 1000L, 1031L, 4099L})
+    check({n, false, false, 0.0, 0.05, 20.0}, false, false, 10 + n);
   check({2053, false, false, 0.0, 0.05, 20.0}, false, true, 11);
 }
 
@@ -230,7 +235,8 @@ TEST_P(GravityGpu, TargetSubsetAsOnOneMpiRank)
 TEST_P(GravityGpu, RepeatedCallsReuseBuffersAndGrow)
 {
   // Shrinking, growing and repeating must give the same answers as fresh computations.
-  for (long n : {3000L, 500L, 6000L, 6000L}) check({n, false, false, 0.0, 0.05, 20.0}, false, true, 60);
+  for (long n : {3000L, 500L, 6000L, 6000L})
+    check({n, false, false, 0.0, 0.05, 20.0}, false, true, 60);
 }
 
 // Large coordinates: a tight cluster at the far end of a 10^4 box.  The mixed mode keeps the

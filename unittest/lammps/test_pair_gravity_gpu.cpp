@@ -24,10 +24,11 @@ Snapshot evaluate(GravitySystem s)
 {
   Lammps lmp;
   lmp.commands(hsgpu_test::gravity_system_lines(s));
-  lmp.commands({"compute pv all pressure NULL virial", "compute pea all pe/atom",
-                "compute sumpe all reduce sum c_pea",
-                "thermo_style custom step pe c_pv[1] c_pv[2] c_pv[3] c_pv[4] c_pv[5] c_pv[6] c_sumpe",
-                "thermo_modify norm no", "run 0"});
+  lmp.commands(
+      {"compute pv all pressure NULL virial", "compute pea all pe/atom",
+       "compute sumpe all reduce sum c_pea",
+       "thermo_style custom step pe c_pv[1] c_pv[2] c_pv[3] c_pv[4] c_pv[5] c_pv[6] c_sumpe",
+       "thermo_modify norm no", "run 0"});
   Snapshot out;
   out.f = lmp.gather("f", 3);
   out.pe = lmp.thermo("pe");
@@ -55,12 +56,22 @@ void compare(const std::string &options, double tol)
   EXPECT_NEAR(gpu.sumpe, cpu.pe, tol * std::fabs(cpu.pe));
   for (int k = 0; k < 6; ++k)
     EXPECT_NEAR(gpu.virial[k], cpu.virial[k], tol * std::fabs(cpu.virial[0])) << "virial " << k;
-  std::printf("[ LAMMPS GPU ] %s: max force error %.2e (relative to max force), pe %.15g vs %.15g\n",
-              options.c_str(), num / den, gpu.pe, cpu.pe);
+  std::printf(
+      "[ LAMMPS GPU ] %s: max force error %.2e (relative to max force), pe %.15g vs %.15g\n",
+      options.c_str(), num / den, gpu.pe, cpu.pe);
 }
 
 }    // namespace
 
-TEST(PairGravityGpu, DoubleMatchesCpu) { compare("precision double", 1e-12); }
-TEST(PairGravityGpu, MixedMatchesCpu) { compare("precision mixed", 2e-5); }
-TEST(PairGravityGpu, SingleMatchesCpu) { compare("precision single device 0", 2e-4); }
+TEST(PairGravityGpu, DoubleMatchesCpu)
+{
+  compare("precision double", 1e-12);
+}
+TEST(PairGravityGpu, MixedMatchesCpu)
+{
+  compare("precision mixed", 2e-5);
+}
+TEST(PairGravityGpu, SingleMatchesCpu)
+{
+  compare("precision single device 0", 2e-4);
+}

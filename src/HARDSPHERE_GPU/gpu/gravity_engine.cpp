@@ -85,9 +85,9 @@ namespace GPU {
   GravityEngine::~GravityEngine()
   {
     cudaSetDevice(impl->device);
-    for (Buffer *b : {&impl->x, &impl->m, &impl->src, &impl->tidx, &impl->scratch, &impl->f,
-                      &impl->e, &impl->v, &impl->keys, &impl->tsorted, &impl->slot,
-                      &impl->sort_temp})
+    for (Buffer *b :
+         {&impl->x, &impl->m, &impl->src, &impl->tidx, &impl->scratch, &impl->f, &impl->e, &impl->v,
+          &impl->keys, &impl->tsorted, &impl->slot, &impl->sort_temp})
       b->release();
     if (impl->start) cudaEventDestroy(impl->start);
     if (impl->stop) cudaEventDestroy(impl->stop);
@@ -95,9 +95,18 @@ namespace GPU {
     delete impl;
   }
 
-  int GravityEngine::device() const { return impl->device; }
-  std::string GravityEngine::device_name() const { return impl->name; }
-  float GravityEngine::last_kernel_ms() const { return impl->kernel_ms; }
+  int GravityEngine::device() const
+  {
+    return impl->device;
+  }
+  std::string GravityEngine::device_name() const
+  {
+    return impl->name;
+  }
+  float GravityEngine::last_kernel_ms() const
+  {
+    return impl->kernel_ms;
+  }
 
   void GravityEngine::set_sources(long n, const double *x, const double *m, bool masses_changed)
   {
@@ -109,9 +118,9 @@ namespace GPU {
                           impl->stream),
           "cudaMemcpy(positions)");
     if (grown || masses_changed) {
-      check(cudaMemcpyAsync(impl->m.ptr, m, n * sizeof(double), cudaMemcpyHostToDevice,
-                            impl->stream),
-            "cudaMemcpy(masses)");
+      check(
+          cudaMemcpyAsync(impl->m.ptr, m, n * sizeof(double), cudaMemcpyHostToDevice, impl->stream),
+          "cudaMemcpy(masses)");
       impl->max_mass = 0.0;
       for (long i = 0; i < n; ++i) impl->max_mass = std::max(impl->max_mass, m[i]);
     }

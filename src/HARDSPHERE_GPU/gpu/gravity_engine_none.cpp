@@ -12,8 +12,14 @@ namespace GPU {
     throw Error("HARDSPHERE_GPU was built without CUDA");
   }
   GravityEngine::~GravityEngine() = default;
-  int GravityEngine::device() const { return -1; }
-  std::string GravityEngine::device_name() const { return ""; }
+  int GravityEngine::device() const
+  {
+    return -1;
+  }
+  std::string GravityEngine::device_name() const
+  {
+    return "";
+  }
   void GravityEngine::set_sources(long, const double *, const double *, bool) {}
   void GravityEngine::set_targets(long, const long *) {}
   void GravityEngine::compute(Precision, const GravityArgs &, double *, double *, double *,
@@ -21,7 +27,10 @@ namespace GPU {
   {
     throw Error("HARDSPHERE_GPU was built without CUDA");
   }
-  float GravityEngine::last_kernel_ms() const { return 0.0f; }
+  float GravityEngine::last_kernel_ms() const
+  {
+    return 0.0f;
+  }
 
 }    // namespace GPU
 }    // namespace HSGPU

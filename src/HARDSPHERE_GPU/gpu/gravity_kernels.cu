@@ -29,7 +29,8 @@ namespace GPU {
     constexpr int REF_BLOCK = 256;
 
     // Packed double-precision source (CUDA 13 deprecates the unsized double4).
-    struct __align__(32) Src64 {
+    struct __align__(32) Src64
+    {
       double x, y, z, w;
     };
 
@@ -57,8 +58,8 @@ namespace GPU {
 
     // ---------------------------------------------------------------- packing
     // One thread per source; reads 32 B, writes 16 or 32 B.
-    __global__ void pack_single(const double *__restrict__ x, const double *__restrict__ m,
-                                long n, double3 lo, float4 *__restrict__ src)
+    __global__ void pack_single(const double *__restrict__ x, const double *__restrict__ m, long n,
+                                double3 lo, float4 *__restrict__ src)
     {
       const long i = blockIdx.x * (long) blockDim.x + threadIdx.x;
       if (i >= n) return;
@@ -66,8 +67,8 @@ namespace GPU {
                            (float) (x[3 * i + 2] - lo.z), (float) m[i]);
     }
 
-    __global__ void pack_double(const double *__restrict__ x, const double *__restrict__ m,
-                                long n, double3 lo, Src64 *__restrict__ src)
+    __global__ void pack_double(const double *__restrict__ x, const double *__restrict__ m, long n,
+                                double3 lo, Src64 *__restrict__ src)
     {
       const long i = blockIdx.x * (long) blockDim.x + threadIdx.x;
       if (i >= n) return;
@@ -87,12 +88,30 @@ namespace GPU {
       for (int k = 0; k < 6; ++k) t.v[k] = (R) 0;
     }
 
-    __device__ inline float rsqrt_p(float x) { return rsqrtf(x); }
-    __device__ inline double rsqrt_p(double x) { return rsqrt(x); }
-    __device__ inline float rint_p(float x) { return rintf(x); }
-    __device__ inline float fma_p(float a, float b, float c) { return fmaf(a, b, c); }
-    __device__ inline double fma_p(double a, double b, double c) { return fma(a, b, c); }
-    __device__ inline double rint_p(double x) { return rint(x); }
+    __device__ inline float rsqrt_p(float x)
+    {
+      return rsqrtf(x);
+    }
+    __device__ inline double rsqrt_p(double x)
+    {
+      return rsqrt(x);
+    }
+    __device__ inline float rint_p(float x)
+    {
+      return rintf(x);
+    }
+    __device__ inline float fma_p(float a, float b, float c)
+    {
+      return fmaf(a, b, c);
+    }
+    __device__ inline double fma_p(double a, double b, double c)
+    {
+      return fma(a, b, c);
+    }
+    __device__ inline double rint_p(double x)
+    {
+      return rint(x);
+    }
 
     // Adds the pull of one source (mass mj, displacement d = x_j - x_i) on one target.
     // `keep` false drops the pair (the target itself).
@@ -333,7 +352,8 @@ namespace GPU {
 
     // Plain baseline: one body per thread, 256-body tiles, fp32, rsqrtf, forces only.
     __global__ void __launch_bounds__(REF_BLOCK)
-        reference_kernel(const float4 *__restrict__ pos, int n, float eps2, float4 *__restrict__ acc)
+        reference_kernel(const float4 *__restrict__ pos, int n, float eps2,
+                         float4 *__restrict__ acc)
     {
       __shared__ float4 sh[REF_BLOCK];
       const int i = blockIdx.x * REF_BLOCK + threadIdx.x;
@@ -360,53 +380,58 @@ namespace GPU {
     }
 
     template <int PREC, bool PER, bool EV, bool CUT, int BLOCK, int ILP>
-    void launch_tiles(const GravityShape &s, const void *src, long nsrc, const int *tidx,
-                      long ntgt, const GravityArgs &a, bool self_test, void *scratch,
-                      cudaStream_t st)
+    void launch_tiles(const GravityShape &s, const void *src, long nsrc, const int *tidx, long ntgt,
+                      const GravityArgs &a, bool self_test, void *scratch, cudaStream_t st)
     {
       using T = PrecTypes<PREC>;
       const long groups = (ntgt + (long) BLOCK * ILP - 1) / ((long) BLOCK * ILP);
       const long chunk = ((nsrc + s.splits - 1) / s.splits + BLOCK - 1) / BLOCK * BLOCK;
       dim3 grid((unsigned) groups, (unsigned) s.splits);
       gravity_tiles<PREC, PER, EV, CUT, BLOCK, ILP><<<grid, BLOCK, 0, st>>>(
-          (const typename T::Src *) src, nsrc, chunk, tidx, ntgt,
-          make_kargs<typename T::R>(a), self_test, (typename T::Part *) scratch);
+          (const typename T::Src *) src, nsrc, chunk, tidx, ntgt, make_kargs<typename T::R>(a),
+          self_test, (typename T::Part *) scratch);
     }
 
     // Picks the compiled (BLOCK, ILP) variant.  The force-only open-box kernel, the hot path
     // of the benchmark, has several shapes; the other flag combinations use 256 x 2 (Single,
     // Mixed) or 256 x 1 (Double), the fastest shapes measured on an H200.
     template <int PREC, bool PER, bool EV, bool CUT>
-    cudaError_t dispatch_shape(const GravityShape &s, const void *src, long nsrc,
-                               const int *tidx, long ntgt, const GravityArgs &a, bool self_test,
-                               void *scratch, cudaStream_t st)
+    cudaError_t dispatch_shape(const GravityShape &s, const void *src, long nsrc, const int *tidx,
+                               long ntgt, const GravityArgs &a, bool self_test, void *scratch,
+                               cudaStream_t st)
     {
       constexpr bool HOT = !PER && !EV && !CUT;
       if (HOT && s.block == 256 && s.ilp == 1)
-        launch_tiles<PREC, PER, EV, CUT, 256, 1>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
+        launch_tiles<PREC, PER, EV, CUT, 256, 1>(s, src, nsrc, tidx, ntgt, a, self_test, scratch,
+                                                 st);
       else if (HOT && s.block == 128 && s.ilp == 1)
-        launch_tiles<PREC, PER, EV, CUT, 128, 1>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
+        launch_tiles<PREC, PER, EV, CUT, 128, 1>(s, src, nsrc, tidx, ntgt, a, self_test, scratch,
+                                                 st);
       else if (HOT && s.block == 128 && s.ilp == 4)
-        launch_tiles<PREC, PER, EV, CUT, 128, 4>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
+        launch_tiles<PREC, PER, EV, CUT, 128, 4>(s, src, nsrc, tidx, ntgt, a, self_test, scratch,
+                                                 st);
       else if (HOT && s.block == 128 && s.ilp == 2)
-        launch_tiles<PREC, PER, EV, CUT, 128, 2>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
+        launch_tiles<PREC, PER, EV, CUT, 128, 2>(s, src, nsrc, tidx, ntgt, a, self_test, scratch,
+                                                 st);
       else if (PREC == 2)
-        launch_tiles<PREC, PER, EV, CUT, 256, 1>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
+        launch_tiles<PREC, PER, EV, CUT, 256, 1>(s, src, nsrc, tidx, ntgt, a, self_test, scratch,
+                                                 st);
       else
-        launch_tiles<PREC, PER, EV, CUT, 256, 2>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
+        launch_tiles<PREC, PER, EV, CUT, 256, 2>(s, src, nsrc, tidx, ntgt, a, self_test, scratch,
+                                                 st);
       return cudaGetLastError();
     }
 
     template <int PREC>
-    cudaError_t dispatch_flags(const GravityShape &s, const void *src, long nsrc,
-                               const int *tidx, long ntgt, const GravityArgs &a, bool self_test,
-                               void *scratch, cudaStream_t st)
+    cudaError_t dispatch_flags(const GravityShape &s, const void *src, long nsrc, const int *tidx,
+                               long ntgt, const GravityArgs &a, bool self_test, void *scratch,
+                               cudaStream_t st)
     {
       const bool per = a.periodic[0] || a.periodic[1] || a.periodic[2];
       const bool ev = a.energy_virial;
       const bool cut = a.cutsq > 0.0;
-#define HSGPU_CASE(P, E, C)                                                                        \
-  if (per == P && ev == E && cut == C)                                                             \
+#define HSGPU_CASE(P, E, C)            \
+  if (per == P && ev == E && cut == C) \
     return dispatch_shape<PREC, P, E, C>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
       HSGPU_CASE(false, false, false)
       HSGPU_CASE(false, false, true)
@@ -425,8 +450,8 @@ namespace GPU {
     {
       GravityShape s = want;
       // (256, 2) is compiled as the default of Single and Mixed only.
-      const bool listed = (want.block == 256 && (want.ilp == 1 ||
-                                                 (want.ilp == 2 && p != Precision::Double))) ||
+      const bool listed =
+          (want.block == 256 && (want.ilp == 1 || (want.ilp == 2 && p != Precision::Double))) ||
           (want.block == 128 && (want.ilp == 1 || want.ilp == 2 || want.ilp == 4));
       if (!hot || !listed) {
         s.block = 256;
@@ -512,8 +537,8 @@ namespace GPU {
 
   GravityShape choose_shape(Precision p, const GravityArgs &a, long ntgt, long nsrc, int num_sms)
   {
-    const bool hot = !(a.periodic[0] || a.periodic[1] || a.periodic[2]) && !a.energy_virial &&
-        !(a.cutsq > 0.0);
+    const bool hot =
+        !(a.periodic[0] || a.periodic[1] || a.periodic[2]) && !a.energy_virial && !(a.cutsq > 0.0);
     // Shapes that measured fastest on an H200 (doc/bench_gravity_gpu.md, --shapes sweep),
     // picked by the system size nsrc, which all MPI ranks share: choosing by a rank's own
     // target count put ranks on either side of a threshold onto different kernels.
@@ -569,8 +594,8 @@ namespace GPU {
     const bool self_safe = !a.energy_virial && a.eps2 > 1e-30 && max_mass < limit * eps3;
     const bool self_test = !self_safe;
     if (ntgt <= 0) return cudaSuccess;
-    const bool hot = !(a.periodic[0] || a.periodic[1] || a.periodic[2]) && !a.energy_virial &&
-        !(a.cutsq > 0.0);
+    const bool hot =
+        !(a.periodic[0] || a.periodic[1] || a.periodic[2]) && !a.energy_virial && !(a.cutsq > 0.0);
     const GravityShape s = compiled_shape(p, want, hot);
     cudaError_t err;
     if (p == Precision::Single)
@@ -586,8 +611,8 @@ namespace GPU {
       finalize<float><<<grid, block, 0, st>>>((const float *) scratch, s.splits, ntgt, tidx, slot,
                                               m, a.G, a.energy_virial, f, e, v);
     else
-      finalize<double><<<grid, block, 0, st>>>((const double *) scratch, s.splits, ntgt, tidx,
-                                               slot, m, a.G, a.energy_virial, f, e, v);
+      finalize<double><<<grid, block, 0, st>>>((const double *) scratch, s.splits, ntgt, tidx, slot,
+                                               m, a.G, a.energy_virial, f, e, v);
     return cudaGetLastError();
   }
 

@@ -16,7 +16,7 @@ namespace GPU {
   struct GravityArgs {
     double G;
     double eps2;
-    double cutsq;          // <= 0: no cutoff
+    double cutsq;    // <= 0: no cutoff
     double lo[3];
     double prd[3];
     int periodic[3];
