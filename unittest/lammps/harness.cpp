@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <stdexcept>
 #include <cstring>
@@ -103,6 +104,15 @@ double Lammps::compute_vector(const char *id, int i)
   auto *v = (double *) lammps_extract_compute(lmp, id, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR);
   if (!v) throw std::runtime_error(std::string("no global vector from compute ") + id);
   return v[i];
+}
+
+double Lammps::fix_vector(const char *id, int i)
+{
+  auto *p = (double *) lammps_extract_fix(lmp, id, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, i, 0);
+  if (!p) return NAN;
+  const double v = *p;
+  lammps_free(p);
+  return v;
 }
 
 }    // namespace hsgpu_test

@@ -34,6 +34,8 @@ class Lammps {
   // Global scalar of compute `id`, or element i (0-based) of its global vector.
   double compute_scalar(const char *id);
   double compute_vector(const char *id, int i);
+  // Element i (0-based) of fix `id`'s global vector, NaN where the fix gives none.
+  double fix_vector(const char *id, int i);
   void *handle() { return lmp; }
 
  private:

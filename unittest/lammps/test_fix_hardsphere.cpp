@@ -4,9 +4,6 @@
 // continuation and the input errors.
 #include "harness.h"
 
-#define LAMMPS_LIB_MPI
-#include "library.h"
-
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -31,16 +28,6 @@ std::string fmt(const char *format, double a = 0, double b = 0, double c = 0, do
   return buf;
 }
 #pragma GCC diagnostic pop
-
-double fixv(Lammps &lmp, const char *id, int i)
-{
-  auto *p =
-      (double *) lammps_extract_fix(lmp.handle(), id, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, i, 0);
-  if (!p) return NAN;
-  const double v = *p;
-  lammps_free(p);
-  return v;
-}
 
 // Box [-10,10]^3, given boundary; sphere i at x[i] with velocity v[i], diameter dia[i], mass m[i].
 struct Spheres {
@@ -102,9 +89,9 @@ TEST(FixHardSphere, HeadOnMatchesAnalyticForAnyTimestep)
     EXPECT_NEAR(v[3], v2, 1e-14) << "dt " << dt;
     EXPECT_NEAR(x[0], -1 + 0.5 + v1 * 2.5, 1e-13) << "dt " << dt;
     EXPECT_NEAR(x[3], 1 - 0.5 + v2 * 2.5, 1e-13) << "dt " << dt;
-    EXPECT_EQ(fixv(lmp, "hs", 1), 1.0);
-    EXPECT_NEAR(fixv(lmp, "hs", 3), 0.5 * (1 - 0.64) * 0.75 * 4.0, 1e-14);
-    EXPECT_EQ(fixv(lmp, "hs", 2), 0.0);
+    EXPECT_EQ(lmp.fix_vector("hs", 1), 1.0);
+    EXPECT_NEAR(lmp.fix_vector("hs", 3), 0.5 * (1 - 0.64) * 0.75 * 4.0, 1e-14);
+    EXPECT_EQ(lmp.fix_vector("hs", 2), 0.0);
   }
 }
 
@@ -152,7 +139,7 @@ TEST(FixHardSphere, CollisionUnderUniformGravityDoesNotDependOnTimestep)
     lmp.commands({"fix 1 all nve/sphere", "fix g all gravity 3.0 vector 0 0 -1",
                   "fix hs all hardsphere restitution 0.7", fmt("timestep %.17g", dt),
                   fmt("run %.0f", std::round(2.0 / dt))});
-    EXPECT_EQ(fixv(lmp, "hs", 1), 1.0) << "dt " << dt;
+    EXPECT_EQ(lmp.fix_vector("hs", 1), 1.0) << "dt " << dt;
     xs.push_back(lmp.gather("x", 3));
     vs.push_back(lmp.gather("v", 3));
   }
@@ -196,9 +183,9 @@ TEST(FixHardSphere, BouncingBallApexHeightsAreExactForAnyTimestep)
     ASSERT_GE(apex.size(), 4u) << "dt " << dt;
     for (size_t n = 0; n < apex.size(); ++n)
       EXPECT_NEAR(apex[n], std::pow(e, 2.0 * (n + 1)) * h0, 1e-12) << "bounce " << n + 1;
-    EXPECT_EQ(fixv(lmp, "hs", 2), (double) apex.size());
+    EXPECT_EQ(lmp.fix_vector("hs", 2), (double) apex.size());
     // Energy removed: (1 - e^2) of the normal kinetic energy at each impact.
-    EXPECT_NEAR(fixv(lmp, "hs", 3), 1.7 * (h0 - apex.back()), 1e-12);
+    EXPECT_NEAR(lmp.fix_vector("hs", 3), 1.7 * (h0 - apex.back()), 1e-12);
     apex_all.push_back(apex);
     std::printf("[ HS       ] bounce dt %.3f: apex heights", dt);
     for (double a : apex) std::printf(" %.15f", a);
@@ -230,7 +217,7 @@ TEST(FixHardSphere, NewtonsCradle)
     EXPECT_NEAR(v[12], 1.0, 1e-15) << order;
     EXPECT_NEAR(x[12], 1.0 + 1.5, 1e-14) << order;    // left at t = 0.5, moved 1.5 since
     EXPECT_NEAR(x[0], -3.0, 1e-14);                   // stopped at contact with ball 2
-    EXPECT_EQ(fixv(lmp, "hs", 1), 4.0) << order;
+    EXPECT_EQ(lmp.fix_vector("hs", 1), 4.0) << order;
   }
 }
 
@@ -248,9 +235,9 @@ TEST(FixHardSphere, CollisionVirialEntersThePressure)
                 "compute pv all pressure NULL virial", "thermo_style custom step press c_pv",
                 "timestep 0.1", "run 5"});
   // Contact at t = 0.5 exactly: the end of step 5, which leaves it to the start of step 6.
-  EXPECT_EQ(fixv(lmp, "hs", 1), 0.0);
+  EXPECT_EQ(lmp.fix_vector("hs", 1), 0.0);
   lmp.commands({"run 1"});
-  EXPECT_EQ(fixv(lmp, "hs", 0), 1.0);
+  EXPECT_EQ(lmp.fix_vector("hs", 0), 1.0);
   // r . dp = |r| J with |r| = 1, J = (1 + e) m_eff |vn| = 1.8 * 0.75 * 2 = 2.7.
   const double vol = 20.0 * 20.0 * 20.0;
   EXPECT_NEAR(lmp.compute_scalar("pv"), 2.7 / 0.1 / (3 * vol), 1e-15);
@@ -295,8 +282,8 @@ TEST(FixHardSphere, DenseRunHasNoOverlapsAndSerialEqualsParallel)
                   "run 3000"});
     x[k] = lmp.gather("x", 3);
     v[k] = lmp.gather("v", 3);
-    coll[k] = fixv(lmp, "hs", 1);
-    maxev[k] = fixv(lmp, "hs", 4);
+    coll[k] = lmp.fix_vector("hs", 1);
+    maxev[k] = lmp.fix_vector("hs", 4);
     // Explicit all-pairs check of the final state (nearest image in x and y).
     const long n = lmp.natoms();
     double worst = 1e300;
@@ -353,7 +340,7 @@ TEST(FixHardSphere, RestartContinuationEqualsUninterruptedRun)
     lmp.commands({"run 300", "write_restart " + file, "run 300"});
     xa = lmp.gather("x", 3);
     va = lmp.gather("v", 3);
-    for (int i = 0; i < 5; ++i) fa[i] = fixv(lmp, "hs", i);
+    for (int i = 0; i < 5; ++i) fa[i] = lmp.fix_vector("hs", i);
   }
   {
     Lammps lmp;
@@ -364,7 +351,7 @@ TEST(FixHardSphere, RestartContinuationEqualsUninterruptedRun)
     lmp.commands({"run 300"});
     xb = lmp.gather("x", 3);
     vb = lmp.gather("v", 3);
-    for (int i = 0; i < 5; ++i) fb[i] = fixv(lmp, "hs", i);
+    for (int i = 0; i < 5; ++i) fb[i] = lmp.fix_vector("hs", i);
   }
   std::remove(file.c_str());
   EXPECT_GT(fa[1], 1000.0);
@@ -509,14 +496,14 @@ TEST(FixHardSphere, SettledPileStaysAtRestWithDefaultGuards)
                 "run 4000"});
   const long n = lmp.natoms();
   const double ke1 = lmp.thermo("ke"), top1 = lmp.compute_scalar("zmax");
-  const double ev1 = fixv(lmp, "hs", 5);
+  const double ev1 = lmp.fix_vector("hs", 5);
   lmp.commands({"run 1000"});
   const double ke2 = lmp.thermo("ke"), top2 = lmp.compute_scalar("zmax");
-  const double per_step = (fixv(lmp, "hs", 5) - ev1) / 1000.0;
+  const double per_step = (lmp.fix_vector("hs", 5) - ev1) / 1000.0;
   const double scale = n * 1.0 * (1.0 * 0.01) * (1.0 * 0.01);    // N m (g dt)^2
   std::printf("[ HS       ] pile of %ld: KE %.3g and %.3g N m (g dt)^2 after 4000 and 5000 steps, "
               "top %.4f -> %.4f, %.2f events per sphere per step, most in a step %.0f\n",
-              n, ke1 / scale, ke2 / scale, top1, top2, per_step / n, fixv(lmp, "hs", 4));
+              n, ke1 / scale, ke2 / scale, top1, top2, per_step / n, lmp.fix_vector("hs", 4));
   EXPECT_GT(n, 200);
   // The residual agitation of a settled pile is of order m (g dt)^2 per sphere (1 to 12 were
   // seen), some 1e-4 of the energy of the fall.
@@ -524,5 +511,5 @@ TEST(FixHardSphere, SettledPileStaysAtRestWithDefaultGuards)
   EXPECT_LT(ke2, 30.0 * scale);
   EXPECT_LT(std::fabs(top2 - top1), 0.05);
   EXPECT_LT(per_step, 8.0 * n);
-  EXPECT_LT(fixv(lmp, "hs", 4), 20.0 * n);
+  EXPECT_LT(lmp.fix_vector("hs", 4), 20.0 * n);
 }

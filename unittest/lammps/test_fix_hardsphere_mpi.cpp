@@ -4,9 +4,6 @@
 // 'comm_modify vel yes' is reported on more than one rank.
 #include "harness.h"
 
-#define LAMMPS_LIB_MPI
-#include "library.h"
-
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -20,16 +17,6 @@ using hsgpu_test::Lammps;
 using ::testing::HasSubstr;
 
 namespace {
-
-double fixv(Lammps &lmp, const char *id, int i)
-{
-  auto *p =
-      (double *) lammps_extract_fix(lmp.handle(), id, LMP_STYLE_GLOBAL, LMP_TYPE_VECTOR, i, 0);
-  if (!p) return NAN;
-  const double v = *p;
-  lammps_free(p);
-  return v;
-}
 
 struct Snapshot {
   std::vector<double> x, v;
@@ -70,7 +57,7 @@ Snapshot run_on(MPI_Comm comm, const std::string &order, int steps)
   Snapshot s;
   s.x = lmp.gather("x", 3);
   s.v = lmp.gather("v", 3);
-  for (int i = 0; i < 6; ++i) s.f[i] = fixv(lmp, "hs", i);
+  for (int i = 0; i < 6; ++i) s.f[i] = lmp.fix_vector("hs", i);
   s.press = lmp.compute_scalar("p");
   return s;
 }
