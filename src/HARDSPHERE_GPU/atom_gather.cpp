@@ -5,9 +5,9 @@
 #include "atom_gather.h"
 
 #include "atom.h"
-#include "comm.h"
 #include "domain.h"
 #include "error.h"
+#include "mpi_allgather.h"
 
 #include <algorithm>
 #include <cstring>
@@ -26,7 +26,6 @@ AtomGather::AtomGather(LAMMPS *lmp, const char *style_name) :
 void AtomGather::gather()
 {
   const int nlocal = atom->nlocal;
-  const int nprocs = comm->nprocs;
   double **xx = atom->x;
   const tagint *tag = atom->tag;
   const double *rmass = atom->rmass;
@@ -75,22 +74,10 @@ void AtomGather::gather()
     if (any_changed) b[4] = rmass ? rmass[i] : pmass[type[i]];
   }
 
-  counts.resize(nprocs);
-  displs.resize(nprocs);
-  int nsend = npack * nlocal;
-  MPI_Allgather(&nsend, 1, MPI_INT, counts.data(), 1, MPI_INT, world);
-  long total = 0;
-  for (int p = 0; p < nprocs; ++p) {
-    displs[p] = (int) total;
-    total += counts[p];
-  }
-  if (total > 2147483647L)
+  if (!HSGPU::allgather_doubles(world, sendbuf, recvbuf, counts, displs))
     error->all(FLERR, "Pair style {}: too many atoms for the all-pairs gather", style);
-  recvbuf.resize(total);
-  MPI_Allgatherv(sendbuf.data(), nsend, MPI_DOUBLE, recvbuf.data(), counts.data(), displs.data(),
-                 MPI_DOUBLE, world);
 
-  const long n = total / npack;
+  const long n = (long) recvbuf.size() / npack;
   ntotal = n;
   x.resize(3 * n);
   if (!any_changed) {

@@ -27,6 +27,7 @@
 
 #include "core/collision_step.h"
 #include "lmp_compat.h"
+#include "mpi_allgather.h"
 
 #include <algorithm>
 #include <cmath>
@@ -402,24 +403,15 @@ void FixHardSphere::gather_boundary()
     mine_sent.push_back(b);
   }
 
-  const int nprocs = comm->nprocs;
-  std::vector<int> counts(nprocs), displs(nprocs);
-  int nsend = (int) send.size();
-  MPI_Allgather(&nsend, 1, MPI_INT, counts.data(), 1, MPI_INT, world);
-  bigint total = 0;
-  for (int p = 0; p < nprocs; ++p) {
-    displs[p] = (int) total;
-    total += counts[p];
-  }
-  if (total > 2147483647L)
+  std::vector<int> counts, displs;
+  std::vector<double> recv;
+  if (!HSGPU::allgather_doubles(world, send, recv, counts, displs))
     error->all(FLERR, "Fix hardsphere: too many atoms in components that span ranks");
   gbodies.clear();
   gedges.clear();
   gmine.clear();
+  const bigint total = (bigint) recv.size();
   if (total == 0) return;
-  std::vector<double> recv(total);
-  MPI_Allgatherv(send.data(), nsend, MPI_DOUBLE, recv.data(), counts.data(), displs.data(),
-                 MPI_DOUBLE, world);
 
   // Entries in atom-ID order.
   std::vector<std::pair<double, bigint>> order;    // (ID, offset)
