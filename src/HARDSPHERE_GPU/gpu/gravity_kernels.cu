@@ -446,8 +446,11 @@ namespace GPU {
     }
 
     // Shapes the dispatcher actually compiles for a flag combination.
-    GravityShape compiled_shape(Precision p, const GravityShape &want, bool hot)
+    GravityShape compiled_shape(Precision p, const GravityShape &want, const GravityArgs &a)
     {
+      // The force-only open-box kernel without cutoff has several shapes compiled.
+      const bool hot = !(a.periodic[0] || a.periodic[1] || a.periodic[2]) && !a.energy_virial &&
+                       !(a.cutsq > 0.0);
       GravityShape s = want;
       // (256, 2) is compiled as the default of Single and Mixed only.
       const bool listed =
@@ -537,8 +540,6 @@ namespace GPU {
 
   GravityShape choose_shape(Precision p, const GravityArgs &a, long ntgt, long nsrc, int num_sms)
   {
-    const bool hot =
-        !(a.periodic[0] || a.periodic[1] || a.periodic[2]) && !a.energy_virial && !(a.cutsq > 0.0);
     // Shapes that measured fastest on an H200 (doc/bench_gravity_gpu.md, --shapes sweep),
     // picked by the system size nsrc, which all MPI ranks share: choosing by a rank's own
     // target count put ranks on either side of a threshold onto different kernels.
@@ -553,7 +554,7 @@ namespace GPU {
       s.block = (nsrc >= 32768) ? 256 : 128;
       s.ilp = 2;
     }
-    s = compiled_shape(p, s, hot);
+    s = compiled_shape(p, s, a);
     const long per_block = (long) s.block * s.ilp;
     const long groups = std::max(1L, (ntgt + per_block - 1) / per_block);
     // Aim for about 16 blocks per multiprocessor, but keep at least 4 tiles per split.
@@ -594,9 +595,7 @@ namespace GPU {
     const bool self_safe = !a.energy_virial && a.eps2 > 1e-30 && max_mass < limit * eps3;
     const bool self_test = !self_safe;
     if (ntgt <= 0) return cudaSuccess;
-    const bool hot =
-        !(a.periodic[0] || a.periodic[1] || a.periodic[2]) && !a.energy_virial && !(a.cutsq > 0.0);
-    const GravityShape s = compiled_shape(p, want, hot);
+    const GravityShape s = compiled_shape(p, want, a);
     cudaError_t err;
     if (p == Precision::Single)
       err = dispatch_flags<0>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
