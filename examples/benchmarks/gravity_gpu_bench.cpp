@@ -1,6 +1,7 @@
 // Benchmark of the all-pairs gravity kernels on one CUDA device (prints figures; not a test).
 //
-//   gravity_gpu_bench [--nmin 1024] [--nmax 1048576] [--reps 5] [--shapes N] [--device D]
+//   gravity_gpu_bench [--nmin 1024] [--nmax 1048576] [--reps 5] [--shapes N[,N...]]
+//                     [--device D]
 //
 // For each N (doubling) and precision: kernel time from CUDA events after two warm-up calls,
 // the median of the repeats, as interactions per second (N (N-1) / t); the same for the
@@ -8,7 +9,9 @@
 // sqrt(sum |f - f_ref|^2 / sum |f_ref|^2) against the double-precision kernel on all bodies,
 // and of the double kernel against a long-double CPU sum on 64 sampled bodies; and the plain
 // reference kernel (one body per thread, 256-body tiles, fp32, rsqrtf) as the baseline,
-// timed the same way.  --shapes N times the launch shapes of the force-only kernel at N.
+// timed the same way.  --shapes N,... times every launch shape compiled for the force-only
+// kernel at each N, with the engine's own number of splits ("auto") and with 1, 4 and 16,
+// and marks the shape the engine picks; --nmin 0 then skips the main table.
 #include "gpu/device_info.cuh"
 #include "gpu/gravity_engine.h"
 #include "gpu/gravity_kernels.cuh"
@@ -173,7 +176,8 @@ double time_reference(const Cloud &c, int reps)
 
 int main(int argc, char **argv)
 {
-  long nmin = 1024, nmax = 1048576, shapes_n = 0;
+  long nmin = 1024, nmax = 1048576;
+  std::vector<long> shapes_n;
   int reps = 5, device = 0;
   for (int i = 1; i + 1 < argc; i += 2) {
     if (!std::strcmp(argv[i], "--nmin"))
@@ -182,9 +186,14 @@ int main(int argc, char **argv)
       nmax = std::atol(argv[i + 1]);
     else if (!std::strcmp(argv[i], "--reps"))
       reps = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--shapes"))
-      shapes_n = std::atol(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--device"))
+    else if (!std::strcmp(argv[i], "--shapes")) {
+      for (const char *p = argv[i + 1]; *p;) {
+        char *end;
+        shapes_n.push_back(std::strtol(p, &end, 10));
+        p = (*end == ',') ? end + 1 : end;
+        if (end == p && *p) break;
+      }
+    } else if (!std::strcmp(argv[i], "--device"))
       device = std::atoi(argv[i + 1]);
     else {
       std::fprintf(stderr, "unknown option %s\n", argv[i]);
@@ -199,22 +208,33 @@ int main(int argc, char **argv)
   GravityEngine eng(device);
   const Precision precs[3] = {Precision::Single, Precision::Mixed, Precision::Double};
 
-  if (shapes_n > 0) {
-    Cloud c = make_cloud(shapes_n);
-    eng.set_sources(shapes_n, c.x.data(), c.m.data(), true);
-    eng.set_targets(shapes_n, c.all.data());
-    std::vector<double> f(3 * shapes_n);
-    std::printf("\n| precision | block | ilp | splits | ms | interactions/s "
-                "|\n|---|---|---|---|---|---|\n");
-    const int shapes[][2] = {{128, 1}, {128, 2}, {128, 4}, {256, 1}, {256, 2}};
-    for (Precision p : precs)
-      for (auto &sh : shapes)
-        for (int splits : {1, 2, 4, 8}) {
-          GravityShape s{sh[0], sh[1], splits};
-          const double ms = time_engine(eng, p, false, reps, f, s);
-          std::printf("| %s | %d | %d | %d | %.3f | %.3e |\n", pname(p), sh[0], sh[1], splits, ms,
-                      (double) shapes_n * (shapes_n - 1) / (ms * 1e-3));
-        }
+  if (!shapes_n.empty()) {
+    std::printf("\n| N | precision | block | ilp | splits | ms | interactions/s | picked "
+                "|\n|---|---|---|---|---|---|---|---|\n");
+    const int shapes[][2] = {{128, 1}, {128, 2}, {128, 4}, {256, 1}, {256, 2}, {256, 4}};
+    const GravityArgs a = args(false);
+    for (long n : shapes_n) {
+      Cloud c = make_cloud(n);
+      eng.set_sources(n, c.x.data(), c.m.data(), true);
+      eng.set_targets(n, c.all.data());
+      std::vector<double> f(3 * n);
+      const int r = (n >= 262144) ? std::min(reps, 3) : reps;
+      for (Precision p : precs) {
+        const GravityShape pick = choose_shape(p, a, n, n, eng.num_sms());
+        for (auto &sh : shapes)
+          for (int splits : {0, 1, 4, 16}) {
+            GravityShape s{sh[0], sh[1], splits};
+            if (splits == 0) s.splits = auto_splits(s, n, n, eng.num_sms());
+            const double ms = time_engine(eng, p, false, r, f, s);
+            const bool picked = splits == 0 && pick.block == sh[0] && pick.ilp == sh[1];
+            std::printf("| %ld | %s | %d | %d | %s%d | %.3f | %.3e | %s |\n", n, pname(p), sh[0],
+                        sh[1], splits == 0 ? "auto " : "", s.splits, ms,
+                        (double) n * (n - 1) / (ms * 1e-3), picked ? "yes" : "");
+            std::fflush(stdout);
+          }
+      }
+    }
+    if (nmin <= 0) return 0;
   }
 
   std::printf("\n| N | baseline fp32 | single | ratio | mixed | double | single+EV | mixed+EV | "

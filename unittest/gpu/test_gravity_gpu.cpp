@@ -103,7 +103,8 @@ Result cpu_core(const Cloud &s, const std::vector<long> &tgt, double G, double e
 }
 
 Result gpu(GravityEngine &eng, Precision prec, const Cloud &s, const std::vector<long> &tgt,
-           double G, double eps, double cut, bool ev)
+           double G, double eps, double cut, bool ev,
+           HSGPU::GPU::GravityShape shape = HSGPU::GPU::GravityShape{0, 0, 0})
 {
   GravityArgs a;
   a.G = G;
@@ -121,7 +122,7 @@ Result gpu(GravityEngine &eng, Precision prec, const Cloud &s, const std::vector
   r.v.resize(6 * tgt.size());
   eng.set_sources((long) s.m.size(), s.x.data(), s.m.data(), true);
   eng.set_targets((long) tgt.size(), tgt.data());
-  eng.compute(prec, a, r.f.data(), r.e.data(), r.v.data());
+  eng.compute(prec, a, r.f.data(), r.e.data(), r.v.data(), shape);
   return r;
 }
 
@@ -164,7 +165,8 @@ class GravityGpu : public ::testing::TestWithParam<Precision> {
     engine = std::make_unique<GravityEngine>(0);
   }
   // scale: how much worse than the default tolerance this case may be (ill-conditioned data)
-  void check(const Case &c, bool subset, bool ev, unsigned seed, double scale = 1.0)
+  void check(const Case &c, bool subset, bool ev, unsigned seed, double scale = 1.0,
+             HSGPU::GPU::GravityShape shape = HSGPU::GPU::GravityShape{0, 0, 0})
   {
     const Cloud s = make_cloud(c, seed);
     std::vector<long> tgt;
@@ -172,7 +174,7 @@ class GravityGpu : public ::testing::TestWithParam<Precision> {
       if (!subset || i % 3 == 1) tgt.push_back(i);
     const double G = 0.7;
     const Result ref = cpu_core(s, tgt, G, c.eps, c.cut);
-    const Result got = gpu(*engine, GetParam(), s, tgt, G, c.eps, c.cut, ev);
+    const Result got = gpu(*engine, GetParam(), s, tgt, G, c.eps, c.cut, ev, shape);
     const bool fp32 = GetParam() != Precision::Double;
     const double tol = tolerance(GetParam()) * scale;
     const double ef = rel_err(got.f, ref.f, fp32 ? &ref.fslack : nullptr, 3);
@@ -184,9 +186,12 @@ class GravityGpu : public ::testing::TestWithParam<Precision> {
       EXPECT_LT(ee, tol) << "energies, n=" << c.n;
       EXPECT_LT(ev_, tol) << "virials, n=" << c.n;
     }
-    std::printf("[ GPU %-6s] n=%-6ld %s%s%s%s rel.err f %.2e e %.2e v %.2e\n", name(GetParam()),
-                c.n, c.periodic ? "periodic " : "open ", c.clustered ? "clustered " : "random ",
-                c.cut > 0 ? "cutoff " : "", subset ? "subset " : "", ef, ee, ev_);
+    std::printf("[ GPU %-6s] n=%-6ld %s%s%s%s", name(GetParam()), c.n,
+                c.periodic ? "periodic " : "open ", c.clustered ? "clustered " : "random ",
+                c.cut > 0 ? "cutoff " : "", subset ? "subset " : "");
+    if (shape.splits > 0)
+      std::printf("shape %dx%d splits %d ", shape.block, shape.ilp, shape.splits);
+    std::printf("rel.err f %.2e e %.2e v %.2e\n", ef, ee, ev_);
   }
   std::unique_ptr<GravityEngine> engine;
 };
@@ -237,6 +242,64 @@ TEST_P(GravityGpu, RepeatedCallsReuseBuffersAndGrow)
   // Shrinking, growing and repeating must give the same answers as fresh computations.
   for (long n : {3000L, 500L, 6000L, 6000L})
     check({n, false, false, 0.0, 0.05, 20.0}, false, true, 60);
+}
+
+// Every launch shape compiled for the force-only open-box kernel (the engine picks among them
+// by system size, so the small systems above reach only some), with one and with several
+// source ranges, on a size that is no multiple of any tile.
+TEST_P(GravityGpu, EveryHotShape)
+{
+  const int shapes[][2] = {{128, 1}, {128, 2}, {128, 4}, {256, 1}, {256, 2}, {256, 4}};
+  for (const auto &sh : shapes)
+    for (int splits : {1, 3})
+      check({3001, false, false, 0.0, 0.05, 20.0}, false, false, 80, 1.0,
+            HSGPU::GPU::GravityShape{sh[0], sh[1], splits});
+  // Target subset: blocks whose last targets are missing.
+  check({4097, false, false, 0.0, 0.05, 20.0}, true, false, 81, 1.0,
+        HSGPU::GPU::GravityShape{256, 4, 2});
+}
+
+// Two bodies at separations from 1e-60 to 1e60, with and without softening: the pair factors
+// m / r^3 (force) and m / r (energy) against long double.  In double precision this checks the
+// corrected approximate reciprocal square root of the kernels to a few units in the last place.
+TEST_P(GravityGpu, PairFactorsAcrossMagnitudes)
+{
+  const bool fp64 = GetParam() == Precision::Double;
+  const double decades = fp64 ? 60.0 : 12.0;    // fp32 covers about 1e-38 .. 1e38
+  const double tol = fp64 ? 4e-15 : 2e-6;
+  std::mt19937_64 rng(90);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  double worst_f = 0.0, worst_e = 0.0;
+  for (int k = 0; k < 400; ++k) {
+    const double r = std::pow(10.0, decades * u(rng));
+    const double soft = (k % 2) ? 0.0 : 0.7 * r;
+    double dir[3] = {u(rng), u(rng), u(rng)};
+    const double len = std::sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+    Cloud s;
+    for (int d = 0; d < 3; ++d) {
+      s.box.lo[d] = -2.0 * r;
+      s.box.prd[d] = 4.0 * r;
+      s.box.periodic[d] = false;
+    }
+    s.x = {0.0, 0.0, 0.0, r * dir[0] / len, r * dir[1] / len, r * dir[2] / len};
+    s.m = {0.75, 1.25};
+    const Result got = gpu(*engine, GetParam(), s, {0, 1}, 1.0, soft, 0.0, true);
+    long double r2 = (long double) soft * soft;
+    for (int d = 0; d < 3; ++d) r2 += (long double) s.x[3 + d] * s.x[3 + d];
+    const long double w = 0.75L * 1.25L / (r2 * sqrtl(r2));
+    const long double fmag = w * sqrtl(r2 - (long double) soft * soft);
+    for (int d = 0; d < 3; ++d) {
+      const long double fd = w * s.x[3 + d];    // on body 0, towards body 1
+      worst_f = std::max(worst_f, (double) (fabsl(got.f[d] - fd) / fmag));
+      worst_f = std::max(worst_f, (double) (fabsl(got.f[3 + d] + fd) / fmag));
+    }
+    const long double e = -0.5L * 0.75L * 1.25L / sqrtl(r2);
+    worst_e = std::max(worst_e, (double) (fabsl(got.e[0] - e) / fabsl(e)));
+  }
+  EXPECT_LT(worst_f, tol);
+  EXPECT_LT(worst_e, tol);
+  std::printf("[ GPU %-6s] two bodies, r = 1e-%g .. 1e%g: max rel.err f %.2e e %.2e\n",
+              name(GetParam()), decades, decades, worst_f, worst_e);
 }
 
 // Large coordinates: a tight cluster at the far end of a 10^4 box.  The mixed mode keeps the

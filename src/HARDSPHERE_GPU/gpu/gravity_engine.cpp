@@ -103,6 +103,10 @@ namespace GPU {
   {
     return impl->name;
   }
+  int GravityEngine::num_sms() const
+  {
+    return impl->num_sms;
+  }
   float GravityEngine::last_kernel_ms() const
   {
     return impl->kernel_ms;

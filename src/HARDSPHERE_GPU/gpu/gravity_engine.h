@@ -30,6 +30,8 @@ namespace GPU {
 
     int device() const;
     std::string device_name() const;
+    /// Multiprocessors of the device (what the automatic launch shape is sized for).
+    int num_sms() const;
 
     /// n sources: positions x (3n, mapped into the periodic cell) and masses m (n).  Masses
     /// are uploaded only when masses_changed is true or n changed.

@@ -20,6 +20,10 @@ namespace GPU {
   {
     return "";
   }
+  int GravityEngine::num_sms() const
+  {
+    return 0;
+  }
   void GravityEngine::set_sources(long, const double *, const double *, bool) {}
   void GravityEngine::set_targets(long, const long *) {}
   void GravityEngine::compute(Precision, const GravityArgs &, double *, double *, double *,

@@ -11,8 +11,10 @@
    load of a source (one 16 B broadcast) is shared by the ILP targets of a thread.  Minimum
    image adds 3 per dimension, energy 1 and virial 9.  Mixed precision costs the same per
    pair; converting a tile's sources to the block origin (3 DADD + 3 F2F each) and adding the
-   tile's fp32 sums into fp64 are per tile.  Global memory traffic is negligible: each tile is
-   read once per block from L2. */
+   tile's fp32 sums into fp64 are per tile.  Double precision: 3 DADD, 3 DFMA, the
+   approximate reciprocal square root (one MUFU) and 7 fp64 instructions correcting it into
+   m_j / r^3 (see pair_factors), 3 DFMA; fp64 runs at half the fp32 lane rate on sm_90.
+   Global memory traffic is negligible: each tile is read once per block from L2. */
 
 #include "gravity_kernels.cuh"
 
@@ -88,17 +90,13 @@ namespace GPU {
       for (int k = 0; k < 6; ++k) t.v[k] = (R) 0;
     }
 
-    __device__ inline float rsqrt_p(float x)
-    {
-      return rsqrtf(x);
-    }
-    __device__ inline double rsqrt_p(double x)
-    {
-      return rsqrt(x);
-    }
     __device__ inline float rint_p(float x)
     {
       return rintf(x);
+    }
+    __device__ inline double rint_p(double x)
+    {
+      return rint(x);
     }
     __device__ inline float fma_p(float a, float b, float c)
     {
@@ -108,9 +106,40 @@ namespace GPU {
     {
       return fma(a, b, c);
     }
-    __device__ inline double rint_p(double x)
+
+    // The pair factors s = m / r^3 and (EV) mi = m / r for r^2 = r2 (softening included).
+    // fp32: one MUFU.RSQ (--use_fast_math), then 3 FMUL.
+    template <bool EV> __device__ inline void pair_factors(float r2, float m, float &s, float &mi)
     {
-      return rint(x);
+      const float inv = rsqrtf(r2);
+      mi = m * inv;
+      s = mi * (inv * inv);
+    }
+
+    // fp64 has no full-precision reciprocal square root in hardware.  Start from the
+    // approximation y (rsqrt.approx.ftz.f64) and correct it with e = 1 - r2 y^2:
+    //   1/r   = y   (1 - e)^(-1/2) = y   (1 + e/2 + 3/8 e^2 + ...)
+    //   1/r^3 = y^3 (1 - e)^(-3/2) = y^3 (1 + 3/2 e + 15/8 e^2 + ...)
+    // The next terms are of order e^3, far below double rounding for the approximation's
+    // |e| (test_gravity_gpu's PairFactorsAcrossMagnitudes checks two-body forces and energies
+    // against long double).
+    // Forces only: 7 fp64 instructions and one MUFU.RSQ64H here; CUDA's rsqrt also checks its
+    // input for special values with integer tests and a branch to a slow path on every call.
+    // In the compiled sm_90 loop the whole interaction takes 16 fp64 instructions (9 DFMA,
+    // 4 DMUL, 3 DADD) against about 18 plus 7 integer, move and branch instructions with
+    // rsqrt: 0.85-0.90e12 interactions/s against 0.74e12 (doc/bench_gravity_gpu.md).
+    // Subnormal r2 counts as zero (ftz).
+    template <bool EV>
+    __device__ inline void pair_factors(double r2, double m, double &s, double &mi)
+    {
+      double y;
+      asm("rsqrt.approx.ftz.f64 %0, %1;" : "=d"(y) : "d"(r2));
+      const double y2 = y * y;
+      const double e = fma(-r2, y2, 1.0);
+      const double m1 = m * y;
+      const double m3 = m1 * y2;
+      s = fma(m3, e * fma(15.0 / 8.0, e, 1.5), m3);
+      if (EV) mi = fma(m1, e * fma(3.0 / 8.0, e, 0.5), m1);
     }
 
     // Adds the pull of one source (mass mj, displacement d = x_j - x_i) on one target.
@@ -125,9 +154,8 @@ namespace GPU {
         mj = (R) 0;
       }
       if (CUT) mj = (r2 > k.cut_eff) ? (R) 0 : mj;
-      const R inv = rsqrt_p(r2);
-      const R mi = mj * inv;
-      const R s = mi * (inv * inv);
+      R s, mi = (R) 0;
+      pair_factors<EV>(r2, mj, s, mi);
       t.a[0] = fma_p(s, dx, t.a[0]);
       t.a[1] = fma_p(s, dy, t.a[1]);
       t.a[2] = fma_p(s, dz, t.a[2]);
@@ -392,34 +420,52 @@ namespace GPU {
           self_test, (typename T::Part *) scratch);
     }
 
-    // Picks the compiled (BLOCK, ILP) variant.  The force-only open-box kernel, the hot path
-    // of the benchmark, has several shapes; the other flag combinations use 256 x 2 (Single,
-    // Mixed) or 256 x 1 (Double), the fastest shapes measured on an H200.
+    // Shapes (BLOCK, ILP) compiled for the force-only open-box kernel without cutoff, the hot
+    // path of the benchmark and of most runs; every other flag combination runs one shape,
+    // 256 x 2 (Single, Mixed) or 256 x 1 (Double).
+    constexpr int HOT_SHAPES[][2] = {{128, 1}, {128, 2}, {128, 4}, {256, 1}, {256, 2}, {256, 4}};
+
+    bool is_hot(const GravityArgs &a)
+    {
+      return !(a.periodic[0] || a.periodic[1] || a.periodic[2]) && !a.energy_virial &&
+             !(a.cutsq > 0.0);
+    }
+
+    template <int PREC, bool PER, bool EV, bool CUT, int I = 0>
+    cudaError_t dispatch_hot(const GravityShape &s, const void *src, long nsrc, const int *tidx,
+                             long ntgt, const GravityArgs &a, bool self_test, void *scratch,
+                             cudaStream_t st)
+    {
+      constexpr int NHOT = sizeof(HOT_SHAPES) / sizeof(HOT_SHAPES[0]);
+      if constexpr (I < NHOT) {
+        constexpr int B = HOT_SHAPES[I][0], L = HOT_SHAPES[I][1];
+        if (s.block == B && s.ilp == L) {
+          launch_tiles<PREC, PER, EV, CUT, B, L>(s, src, nsrc, tidx, ntgt, a, self_test, scratch,
+                                                 st);
+          return cudaGetLastError();
+        }
+        return dispatch_hot<PREC, PER, EV, CUT, I + 1>(s, src, nsrc, tidx, ntgt, a, self_test,
+                                                       scratch, st);
+      } else {
+        return cudaErrorInvalidValue;    // compiled_shape only hands out listed shapes
+      }
+    }
+
+    // Launches the compiled (BLOCK, ILP) variant of shape s (one that compiled_shape returned).
     template <int PREC, bool PER, bool EV, bool CUT>
     cudaError_t dispatch_shape(const GravityShape &s, const void *src, long nsrc, const int *tidx,
                                long ntgt, const GravityArgs &a, bool self_test, void *scratch,
                                cudaStream_t st)
     {
-      constexpr bool HOT = !PER && !EV && !CUT;
-      if (HOT && s.block == 256 && s.ilp == 1)
-        launch_tiles<PREC, PER, EV, CUT, 256, 1>(s, src, nsrc, tidx, ntgt, a, self_test, scratch,
+      if constexpr (!PER && !EV && !CUT) {
+        return dispatch_hot<PREC, PER, EV, CUT>(s, src, nsrc, tidx, ntgt, a, self_test, scratch,
+                                                st);
+      } else {
+        constexpr int L = (PREC == 2) ? 1 : 2;
+        launch_tiles<PREC, PER, EV, CUT, 256, L>(s, src, nsrc, tidx, ntgt, a, self_test, scratch,
                                                  st);
-      else if (HOT && s.block == 128 && s.ilp == 1)
-        launch_tiles<PREC, PER, EV, CUT, 128, 1>(s, src, nsrc, tidx, ntgt, a, self_test, scratch,
-                                                 st);
-      else if (HOT && s.block == 128 && s.ilp == 4)
-        launch_tiles<PREC, PER, EV, CUT, 128, 4>(s, src, nsrc, tidx, ntgt, a, self_test, scratch,
-                                                 st);
-      else if (HOT && s.block == 128 && s.ilp == 2)
-        launch_tiles<PREC, PER, EV, CUT, 128, 2>(s, src, nsrc, tidx, ntgt, a, self_test, scratch,
-                                                 st);
-      else if (PREC == 2)
-        launch_tiles<PREC, PER, EV, CUT, 256, 1>(s, src, nsrc, tidx, ntgt, a, self_test, scratch,
-                                                 st);
-      else
-        launch_tiles<PREC, PER, EV, CUT, 256, 2>(s, src, nsrc, tidx, ntgt, a, self_test, scratch,
-                                                 st);
-      return cudaGetLastError();
+        return cudaGetLastError();
+      }
     }
 
     template <int PREC>
@@ -445,18 +491,13 @@ namespace GPU {
       return cudaErrorInvalidValue;
     }
 
-    // Shapes the dispatcher actually compiles for a flag combination.
+    // The shape the dispatcher actually runs for a wanted shape and flag combination.
     GravityShape compiled_shape(Precision p, const GravityShape &want, const GravityArgs &a)
     {
-      // The force-only open-box kernel without cutoff has several shapes compiled.
-      const bool hot = !(a.periodic[0] || a.periodic[1] || a.periodic[2]) && !a.energy_virial &&
-                       !(a.cutsq > 0.0);
       GravityShape s = want;
-      // (256, 2) is compiled as the default of Single and Mixed only.
-      const bool listed =
-          (want.block == 256 && (want.ilp == 1 || (want.ilp == 2 && p != Precision::Double))) ||
-          (want.block == 128 && (want.ilp == 1 || want.ilp == 2 || want.ilp == 4));
-      if (!hot || !listed) {
+      bool listed = false;
+      for (const auto &h : HOT_SHAPES) listed |= (want.block == h[0] && want.ilp == h[1]);
+      if (!is_hot(a) || !listed) {
         s.block = 256;
         s.ilp = (p == Precision::Double) ? 1 : 2;
       }
@@ -545,23 +586,28 @@ namespace GPU {
     // target count put ranks on either side of a threshold onto different kernels.
     GravityShape s;
     if (p == Precision::Double) {
-      s.block = 256;
-      s.ilp = 1;
+      s.block = (nsrc >= 8192) ? 256 : 128;
+      s.ilp = (nsrc >= 8192) ? 2 : 1;
     } else if (p == Precision::Mixed) {
-      s.block = (nsrc >= 262144) ? 256 : 128;
-      s.ilp = (nsrc >= 262144) ? 2 : 1;
+      s.block = (nsrc >= 65536) ? 128 : (nsrc >= 8192) ? 256 : 128;
+      s.ilp = (nsrc >= 65536) ? 4 : 2;
     } else {
-      s.block = (nsrc >= 32768) ? 256 : 128;
-      s.ilp = 2;
+      s.block = (nsrc >= 8192) ? 256 : 128;
+      s.ilp = (nsrc >= 8192) ? 4 : 1;
     }
     s = compiled_shape(p, s, a);
+    s.splits = auto_splits(s, ntgt, nsrc, num_sms);
+    return s;
+  }
+
+  int auto_splits(const GravityShape &s, long ntgt, long nsrc, int num_sms)
+  {
     const long per_block = (long) s.block * s.ilp;
     const long groups = std::max(1L, (ntgt + per_block - 1) / per_block);
-    // Aim for about 16 blocks per multiprocessor, but keep at least 4 tiles per split.
+    // Aim for about 16 blocks per multiprocessor, but keep at least 2 tiles per split.
     const long want = std::max(1L, (16L * num_sms + groups - 1) / groups);
-    const long most = std::max(1L, nsrc / (4L * s.block));
-    s.splits = (int) std::min(std::min(want, most), 1024L);
-    return s;
+    const long most = std::max(1L, nsrc / (2L * s.block));
+    return (int) std::min(std::min(want, most), 1024L);
   }
 
   size_t scratch_bytes(Precision p, const GravityShape &s, long ntgt, bool energy_virial)

@@ -38,6 +38,10 @@ namespace GPU {
   /// for ntgt targets and nsrc sources.
   GravityShape choose_shape(Precision p, const GravityArgs &a, long ntgt, long nsrc, int num_sms);
 
+  /// Number of source ranges ("splits") choose_shape gives shape s (block and ilp set) for
+  /// ntgt targets and nsrc sources: about 16 blocks per multiprocessor, at least 2 tiles each.
+  int auto_splits(const GravityShape &s, long ntgt, long nsrc, int num_sms);
+
   /// Bytes of scratch space compute_gravity needs for this shape (split partial sums).
   size_t scratch_bytes(Precision p, const GravityShape &s, long ntgt, bool energy_virial);
 
