@@ -41,7 +41,8 @@ void AtomGather::gather()
   box.periodic[2] = domain->zperiodic;
 
   // Masses (and IDs' order) rarely change: send them only when some rank's owned set did.
-  int local_changed = (nlocal != (int) last_tag.size()) ? 1 : 0;
+  int local_changed = (nlocal != (int) last_tag.size() || id_order != last_id_order) ? 1 : 0;
+  last_id_order = id_order;
   for (int i = 0; !local_changed && i < nlocal; ++i) {
     const double mi = rmass ? rmass[i] : pmass[type[i]];
     local_changed = (tag[i] != last_tag[i] || mi != last_mass[i]) ? 1 : 0;
@@ -74,37 +75,45 @@ void AtomGather::gather()
     if (any_changed) b[4] = rmass ? rmass[i] : pmass[type[i]];
   }
 
-  if (!HSGPU::allgather_doubles(world, sendbuf, recvbuf, counts, displs))
+  // Rank order, positions only: receive straight into x.
+  std::vector<double> &recv = (!id_order && !any_changed) ? x : recvbuf;
+  if (!HSGPU::allgather_doubles(world, sendbuf, recv, counts, displs))
     error->all(FLERR, "Pair style {}: too many atoms for the all-pairs gather", style);
 
-  const long n = (long) recvbuf.size() / npack;
+  const long n = (long) recv.size() / npack;
   ntotal = n;
-  x.resize(3 * n);
   if (!any_changed) {
+    changed_masses = false;
+    if (!id_order) return;    // x is filled; index[] is unchanged
+    x.resize(3 * n);
     for (long s = 0; s < n; ++s) {
       const double *b = &recvbuf[3 * order[s]];
       x[3 * s] = b[0];
       x[3 * s + 1] = b[1];
       x[3 * s + 2] = b[2];
     }
-    changed_masses = false;
     return;    // index[] is unchanged too
   }
+  x.resize(3 * n);
   mass.resize(n);
 
-  // Atom-ID order: direct placement when IDs are exactly 1..n, a sort otherwise.
-  double maxtag = 0.0;
-  for (long k = 0; k < n; ++k) maxtag = std::max(maxtag, recvbuf[npack * k]);
-  direct = (maxtag == (double) n);
   order.resize(n);
-  if (direct) {
-    for (long k = 0; k < n; ++k) order[(long) recvbuf[npack * k] - 1] = k;
-  } else {
+  if (!id_order) {
     for (long k = 0; k < n; ++k) order[k] = k;
-    std::sort(order.begin(), order.end(),
-              [this, npack](long a, long b) { return recvbuf[npack * a] < recvbuf[npack * b]; });
-    tags_sorted.resize(n);
-    for (long s = 0; s < n; ++s) tags_sorted[s] = recvbuf[npack * order[s]];
+  } else {
+    // Atom-ID order: direct placement when IDs are exactly 1..n, a sort otherwise.
+    double maxtag = 0.0;
+    for (long k = 0; k < n; ++k) maxtag = std::max(maxtag, recvbuf[npack * k]);
+    direct = (maxtag == (double) n);
+    if (direct) {
+      for (long k = 0; k < n; ++k) order[(long) recvbuf[npack * k] - 1] = k;
+    } else {
+      for (long k = 0; k < n; ++k) order[k] = k;
+      std::sort(order.begin(), order.end(),
+                [this, npack](long a, long b) { return recvbuf[npack * a] < recvbuf[npack * b]; });
+      tags_sorted.resize(n);
+      for (long s = 0; s < n; ++s) tags_sorted[s] = recvbuf[npack * order[s]];
+    }
   }
 
   changed_masses = true;
@@ -120,8 +129,12 @@ void AtomGather::gather()
   }
 
   index.resize(nlocal);
+  int me = 0;
+  MPI_Comm_rank(world, &me);
   for (int i = 0; i < nlocal; ++i) {
-    if (direct) {
+    if (!id_order) {
+      index[i] = displs[me] / npack + i;
+    } else if (direct) {
       index[i] = (long) tag[i] - 1;
     } else {
       auto it = std::lower_bound(tags_sorted.begin(), tags_sorted.end(), (double) tag[i]);

@@ -1,10 +1,13 @@
 /* -*- c++ -*- ------------------------------------------------------------------
-   HARDSPHERE_GPU: every rank's copy of all positions and masses, in atom-ID order.
+   HARDSPHERE_GPU: every rank's copy of all positions and masses.
 
    The all-pairs styles let each rank compute the interactions of its own atoms with every
    atom of the system.  AtomGather collects the positions (mapped into the periodic cell)
-   and masses of all atoms on all ranks, ordered by atom ID, so that the order of the sums
-   and hence the results do not depend on how the domain is decomposed.
+   and masses of all atoms on all ranks.  In atom-ID order (id_order true, the CPU path) the
+   order of the sums and hence the results do not depend on how the domain is decomposed.
+   In rank order (id_order false, the GPU path, whose sums depend on the launch shape anyway)
+   the positions are received straight into place: no reordering pass over all N atoms on
+   every rank and step (at N = 1048576 on 4 GPUs the gather fell from 16 to 10 ms per call).
 ------------------------------------------------------------------------------------- */
 #ifndef LMP_HSGPU_ATOM_GATHER_H
 #define LMP_HSGPU_ATOM_GATHER_H
@@ -22,11 +25,13 @@ class AtomGather : protected Pointers {
   AtomGather(class LAMMPS *, const char *style);
 
   // Collective: gather owned atoms of all ranks.  Stops with an error naming the atom if
-  // a mass is not positive.
+  // a mass is not positive.  Ranks may differ in id_order.
   void gather();
 
+  bool id_order = true;    // order x and mass by atom ID (else by rank, as received)
+
   long ntotal;                 // atoms in the system
-  std::vector<double> x;       // 3*ntotal positions in atom-ID order, wrapped
+  std::vector<double> x;       // 3*ntotal positions in atom-ID (or rank) order, wrapped
   std::vector<double> mass;    // ntotal masses
   std::vector<long> index;     // index[i] for owned atom i: its place in x and mass
   HSGPU::Gravity::Box box;     // orthogonal box with its periodic flags
@@ -37,7 +42,8 @@ class AtomGather : protected Pointers {
   std::vector<double> sendbuf, recvbuf;
   std::vector<int> counts, displs;
   std::vector<long> order;
-  bool direct = false;    // atom IDs are exactly 1..ntotal
+  bool direct = false;          // atom IDs are exactly 1..ntotal
+  bool last_id_order = true;    // the order of the previous gather
   std::vector<double> tags_sorted;
   std::vector<tagint> last_tag;     // owned atoms' IDs and masses at the previous gather:
   std::vector<double> last_mass;    // masses travel only when these change on some rank

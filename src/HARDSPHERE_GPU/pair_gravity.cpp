@@ -228,6 +228,9 @@ void PairGravity::compute(int eflag, int vflag)
 {
   ev_init(eflag, vflag);
   const double t0 = timing ? MPI_Wtime() : 0.0;
+  // The CPU path sums in atom-ID order (results independent of the decomposition); the GPU
+  // path takes the atoms in the order they arrive.
+  gather->id_order = (engine == nullptr);
   gather->gather();
   const double t1 = timing ? MPI_Wtime() : 0.0;
   const int nlocal = atom->nlocal;
