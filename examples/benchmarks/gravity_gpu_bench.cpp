@@ -10,7 +10,7 @@
 // and of the double kernel against a long-double CPU sum on 64 sampled bodies; and the plain
 // reference kernel (one body per thread, 256-body tiles, fp32, rsqrtf) as the baseline,
 // timed the same way.  --shapes N,... times every launch shape compiled for the force-only
-// kernel at each N, with the engine's own number of splits ("auto") and with 1, 4 and 16,
+// kernel at each N, with the engine's own number of splits ("auto") and with 1, 4, 16, 32, 64,
 // and marks the shape the engine picks; --nmin 0 then skips the main table.
 #include "gpu/device_info.cuh"
 #include "gpu/gravity_engine.h"
@@ -222,7 +222,7 @@ int main(int argc, char **argv)
       for (Precision p : precs) {
         const GravityShape pick = choose_shape(p, a, n, n, eng.num_sms());
         for (auto &sh : shapes)
-          for (int splits : {0, 1, 4, 16}) {
+          for (int splits : {0, 1, 4, 16, 32, 64}) {
             GravityShape s{sh[0], sh[1], splits};
             if (splits == 0) s.splits = auto_splits(s, n, n, eng.num_sms());
             const double ms = time_engine(eng, p, false, r, f, s);
