@@ -211,7 +211,6 @@ int main(int argc, char **argv)
   if (!shapes_n.empty()) {
     std::printf("\n| N | precision | block | ilp | splits | ms | interactions/s | picked "
                 "|\n|---|---|---|---|---|---|---|---|\n");
-    const int shapes[][2] = {{128, 1}, {128, 2}, {128, 4}, {256, 1}, {256, 2}, {256, 4}};
     const GravityArgs a = args(false);
     for (long n : shapes_n) {
       Cloud c = make_cloud(n);
@@ -221,7 +220,7 @@ int main(int argc, char **argv)
       const int r = (n >= 262144) ? std::min(reps, 3) : reps;
       for (Precision p : precs) {
         const GravityShape pick = choose_shape(p, a, n, n, eng.num_sms());
-        for (auto &sh : shapes)
+        for (const auto &sh : HOT_SHAPES)
           for (int splits : {0, 1, 4, 16, 32, 64}) {
             GravityShape s{sh[0], sh[1], splits};
             if (splits == 0) s.splits = auto_splits(s, n, n, eng.num_sms());

@@ -5,6 +5,7 @@
 #include "atom_gather.h"
 
 #include "atom.h"
+#include "comm.h"
 #include "domain.h"
 #include "error.h"
 #include "mpi_allgather.h"
@@ -129,11 +130,9 @@ void AtomGather::gather()
   }
 
   index.resize(nlocal);
-  int me = 0;
-  MPI_Comm_rank(world, &me);
   for (int i = 0; i < nlocal; ++i) {
     if (!id_order) {
-      index[i] = displs[me] / npack + i;
+      index[i] = displs[comm->me] / npack + i;
     } else if (direct) {
       index[i] = (long) tag[i] - 1;
     } else {

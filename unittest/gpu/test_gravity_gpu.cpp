@@ -249,8 +249,7 @@ TEST_P(GravityGpu, RepeatedCallsReuseBuffersAndGrow)
 // source ranges, on a size that is no multiple of any tile.
 TEST_P(GravityGpu, EveryHotShape)
 {
-  const int shapes[][2] = {{128, 1}, {128, 2}, {128, 4}, {256, 1}, {256, 2}, {256, 4}};
-  for (const auto &sh : shapes)
+  for (const auto &sh : HSGPU::GPU::HOT_SHAPES)
     for (int splits : {1, 3})
       check({3001, false, false, 0.0, 0.05, 20.0}, false, false, 80, 1.0,
             HSGPU::GPU::GravityShape{sh[0], sh[1], splits});

@@ -420,11 +420,8 @@ namespace GPU {
           self_test, (typename T::Part *) scratch);
     }
 
-    // Shapes (BLOCK, ILP) compiled for the force-only open-box kernel without cutoff, the hot
-    // path of the benchmark and of most runs; every other flag combination runs one shape,
-    // 256 x 2 (Single, Mixed) or 256 x 1 (Double).
-    constexpr int HOT_SHAPES[][2] = {{128, 1}, {128, 2}, {128, 4}, {256, 1}, {256, 2}, {256, 4}};
-
+    // The force-only open-box kernel without cutoff (the hot path of the benchmark and of most
+    // runs) is compiled in every shape of HOT_SHAPES (gravity_types.h).
     bool is_hot(const GravityArgs &a)
     {
       return !(a.periodic[0] || a.periodic[1] || a.periodic[2]) && !a.energy_virial &&
@@ -436,8 +433,7 @@ namespace GPU {
                              long ntgt, const GravityArgs &a, bool self_test, void *scratch,
                              cudaStream_t st)
     {
-      constexpr int NHOT = sizeof(HOT_SHAPES) / sizeof(HOT_SHAPES[0]);
-      if constexpr (I < NHOT) {
+      if constexpr (I < NUM_HOT_SHAPES) {
         constexpr int B = HOT_SHAPES[I][0], L = HOT_SHAPES[I][1];
         if (s.block == B && s.ilp == L) {
           launch_tiles<PREC, PER, EV, CUT, B, L>(s, src, nsrc, tidx, ntgt, a, self_test, scratch,
