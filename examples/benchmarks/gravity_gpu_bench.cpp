@@ -5,13 +5,16 @@
 //
 // For each N (doubling) and precision: kernel time from CUDA events after two warm-up calls,
 // the median of the repeats, as interactions per second (N (N-1) / t); the same for the
-// energy+virial kernel up to N = 262144; the relative force error
+// pairs-once kernel ("once": each pair evaluated once for both bodies, so N (N-1) / t counts
+// the pair forces delivered, not the pairs evaluated) in single and double precision, and
+// for the energy+virial kernel up to N = 262144; the relative force error
 // sqrt(sum |f - f_ref|^2 / sum |f_ref|^2) against the double-precision kernel on all bodies,
 // and of the double kernel against a long-double CPU sum on 64 sampled bodies; and the plain
 // reference kernel (one body per thread, 256-body tiles, fp32, rsqrtf) as the baseline,
 // timed the same way.  --shapes N,... times every launch shape compiled for the force-only
 // kernel at each N, with the engine's own number of splits ("auto") and with 1, 4, 16, 32, 64,
-// and marks the shape the engine picks; --nmin 0 then skips the main table.
+// and the pairs-once kernel with ILP 2, 4 and 8, and marks the shape the engine picks (for
+// pairs once: when the engine would take it); --nmin 0 then skips the main table.
 #include "gpu/device_info.cuh"
 #include "gpu/gravity_engine.h"
 #include "gpu/gravity_kernels.cuh"
@@ -64,9 +67,10 @@ Cloud make_cloud(long n)
   return c;
 }
 
-GravityArgs args(bool ev)
+GravityArgs args(bool ev, int pairs_once = 0)
 {
   GravityArgs a;
+  a.pairs_once = pairs_once;
   a.G = 1.0;
   a.eps2 = 1e-4;
   a.cutsq = 0.0;
@@ -79,15 +83,21 @@ GravityArgs args(bool ev)
   return a;
 }
 
+// Median kernel time (ms) of reps calls after two warm-up calls.  once: evaluate each pair
+// once (GravityArgs::pairs_once = 2); exits if the engine did not.
 double time_engine(GravityEngine &eng, Precision p, bool ev, int reps, std::vector<double> &f,
-                   GravityShape shape = GravityShape{0, 0, 0})
+                   GravityShape shape = GravityShape{0, 0, 0}, bool once = false)
 {
   const long n = (long) f.size() / 3;
   std::vector<double> e(ev ? n : 0), v(ev ? 6 * n : 0);
-  const GravityArgs a = args(ev);
+  const GravityArgs a = args(ev, once ? 2 : 0);
   std::vector<double> ms;
   for (int r = 0; r < reps + 2; ++r) {
     eng.compute(p, a, f.data(), e.data(), v.data(), shape);
+    if (eng.last_pairs_once() != once) {
+      std::fprintf(stderr, "the engine %s the pairs-once kernel\n", once ? "did not run" : "ran");
+      std::exit(1);
+    }
     if (r >= 2) ms.push_back(eng.last_kernel_ms());
   }
   return median(ms);
@@ -231,41 +241,58 @@ int main(int argc, char **argv)
                         (double) n * (n - 1) / (ms * 1e-3), picked ? "yes" : "");
             std::fflush(stdout);
           }
+        if (!pairs_once_supported(p, a)) continue;
+        const int pick_ilp = pairs_once_layout(p, n).ilp;
+        for (int ilp : {2, 4, 8}) {
+          const double ms = time_engine(eng, p, false, r, f, GravityShape{0, ilp, 1}, true);
+          const bool picked = ilp == pick_ilp && pairs_once_pays(p, n);
+          std::printf("| %ld | %s | once | %d | - | %.3f | %.3e | %s |\n", n, pname(p), ilp, ms,
+                      (double) n * (n - 1) / (ms * 1e-3), picked ? "yes" : "");
+          std::fflush(stdout);
+        }
       }
     }
     if (nmin <= 0) return 0;
   }
 
-  std::printf("\n| N | baseline fp32 | single | ratio | mixed | double | single+EV | mixed+EV | "
-              "double+EV | err single | err mixed | err double (vs long double) |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf("\n| N | baseline fp32 | single | ratio | single once | ratio | mixed | double | "
+              "double once | single+EV | mixed+EV | double+EV | err single | err single once | "
+              "err mixed | err double | err double once (vs long double) |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (long n = nmin; n <= nmax; n *= 2) {
     Cloud c = make_cloud(n);
     eng.set_sources(n, c.x.data(), c.m.data(), true);
     eng.set_targets(n, c.all.data());
     const int r = (n >= 262144) ? std::min(reps, 3) : reps;
     const double pairs = (double) n * (n - 1);
-    std::vector<double> f[3];
-    double rate[3], rate_ev[3] = {0, 0, 0};
+    std::vector<double> f[3], fo[3];
+    double rate[3], rate_once[3] = {0, 0, 0}, rate_ev[3] = {0, 0, 0};
     for (int k = 0; k < 3; ++k) {
       f[k].resize(3 * n);
       rate[k] = pairs / (time_engine(eng, precs[k], false, r, f[k]) * 1e-3);
+      if (pairs_once_supported(precs[k], args(false))) {
+        fo[k].resize(3 * n);
+        rate_once[k] =
+            pairs /
+            (time_engine(eng, precs[k], false, r, fo[k], GravityShape{0, 0, 0}, true) * 1e-3);
+      }
       if (n <= 262144) {
         std::vector<double> tmp(3 * n);
         rate_ev[k] = pairs / (time_engine(eng, precs[k], true, r, tmp) * 1e-3);
       }
     }
     const double base = pairs / (time_reference(c, r) * 1e-3);
-    const double err_d = sample_error(c, f[2], 64);
-    std::printf("| %ld | %.3e | %.3e | %.2f | %.3e | %.3e | ", n, base, rate[0], rate[0] / base,
-                rate[1], rate[2]);
+    std::printf("| %ld | %.3e | %.3e | %.2f | %.3e | %.2f | %.3e | %.3e | %.3e | ", n, base,
+                rate[0], rate[0] / base, rate_once[0], rate_once[0] / base, rate[1], rate[2],
+                rate_once[2]);
     for (int k = 0; k < 3; ++k) {
       if (rate_ev[k] > 0)
         std::printf("%.3e | ", rate_ev[k]);
       else
         std::printf("- | ");
     }
-    std::printf("%.1e | %.1e | %.1e |\n", rel_rms(f[0], f[2]), rel_rms(f[1], f[2]), err_d);
+    std::printf("%.1e | %.1e | %.1e | %.1e | %.1e |\n", rel_rms(f[0], f[2]), rel_rms(fo[0], f[2]),
+                rel_rms(f[1], f[2]), sample_error(c, f[2], 64), sample_error(c, fo[2], 64));
     std::fflush(stdout);
   }
   return 0;

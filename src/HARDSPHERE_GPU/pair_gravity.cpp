@@ -9,6 +9,7 @@
 #include "comm.h"
 #include "domain.h"
 #include "error.h"
+#include "force.h"
 #include "memory.h"
 #include "utils.h"
 
@@ -26,8 +27,8 @@ using namespace LAMMPS_NS;
 PairGravity::PairGravity(LAMMPS *lmp) :
     Pair(lmp), gravity_g(0.0), softening_eps(0.0), cutoff(0.0), gather(nullptr), gpu_requested(0),
     precision((int) HSGPU::GPU::Precision::Mixed), device_request(-1), engine(nullptr),
-    t_gather(0.0), t_upload(0.0), t_kernel(0.0), t_total(0.0), ncalls(0), timing(false),
-    timing_all(false)
+    t_gather(0.0), t_upload(0.0), t_kernel(0.0), t_total(0.0), ncalls(0), ncalls_once(0),
+    timing(false), timing_all(false)
 {
   single_enable = 0;
   restartinfo = 1;
@@ -45,15 +46,16 @@ PairGravity::~PairGravity()
 {
   if (timing && timing_all && ncalls > 0)
     printf("Pair gravity timing on rank %d over %ld calls (s/call): total %.4g, gather %.4g, "
-           "device transfers+launch %.4g, kernels %.4g\n",
+           "device transfers+launch %.4g, kernels %.4g; pairs once in %ld calls\n",
            comm->me, ncalls, t_total / ncalls, t_gather / ncalls, t_upload / ncalls,
-           t_kernel / ncalls);
+           t_kernel / ncalls, ncalls_once);
   else if (timing && comm->me == 0 && ncalls > 0)
     utils::logmesg(lmp,
                    "Pair gravity timing on rank 0 over {} calls (s/call): total {:.4g}, gather "
-                   "{:.4g}, device transfers+launch {:.4g}, kernels {:.4g}\n",
+                   "{:.4g}, device transfers+launch {:.4g}, kernels {:.4g}; pairs once in {} "
+                   "calls\n",
                    ncalls, t_total / ncalls, t_gather / ncalls, t_upload / ncalls,
-                   t_kernel / ncalls);
+                   t_kernel / ncalls, ncalls_once);
   delete gather;
   delete engine;
   if (allocated) {
@@ -214,6 +216,9 @@ void PairGravity::setup_gpu()
     static const char *names[] = {"single", "mixed", "double"};
     utils::logmesg(lmp, "Pair gravity: CUDA path, precision {}, rank 0 on device {} ({})\n",
                    names[precision], device, HSGPU::GPU::device_description(device));
+    if (force->newton_pair && comm->nprocs == 1 && precision != (int) HSGPU::GPU::Precision::Mixed)
+      utils::logmesg(lmp, "Pair gravity: newton on, one rank: each pair evaluated once on "
+                          "force-only steps of open boxes without cutoff, from 32768 atoms\n");
   }
 }
 
@@ -288,6 +293,10 @@ void PairGravity::compute_gpu(int nlocal)
     a.periodic[d] = gather->box.periodic[d];
   }
   a.energy_virial = (eflag_either || vflag_either);
+  // newton on (the LAMMPS default): on one rank, where every atom is a target, each pair may
+  // be evaluated once for both atoms; the engine does so on force-only steps where it is
+  // faster (doc/pair_gravity.md).
+  a.pairs_once = force->newton_pair ? 1 : 0;
   gpu_f.resize(3 * (size_t) nlocal);
   gpu_e.resize(a.energy_virial ? nlocal : 0);
   gpu_v.resize(a.energy_virial ? 6 * (size_t) nlocal : 0);
@@ -298,6 +307,7 @@ void PairGravity::compute_gpu(int nlocal)
     engine->set_targets(nlocal, gather->index.data());
     engine->compute((HSGPU::GPU::Precision) precision, a, gpu_f.data(), gpu_e.data(), gpu_v.data());
     if (timing) {
+      ncalls_once += engine->last_pairs_once() ? 1 : 0;
       const double k = 1e-3 * engine->last_kernel_ms();
       t_kernel += k;
       t_upload += MPI_Wtime() - t0 - k;

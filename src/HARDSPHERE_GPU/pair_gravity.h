@@ -58,7 +58,7 @@ class PairGravity : public Pair {
   // HSGPU_TIMING=1 in the environment: seconds spent per phase, printed by rank 0 at the end;
   // HSGPU_TIMING=all: printed by every rank
   double t_gather, t_upload, t_kernel, t_total;
-  long ncalls;
+  long ncalls, ncalls_once;    // calls, and calls that evaluated each pair once
   bool timing, timing_all;
 
   struct TargetSums {

@@ -104,9 +104,10 @@ Result cpu_core(const Cloud &s, const std::vector<long> &tgt, double G, double e
 
 Result gpu(GravityEngine &eng, Precision prec, const Cloud &s, const std::vector<long> &tgt,
            double G, double eps, double cut, bool ev,
-           HSGPU::GPU::GravityShape shape = HSGPU::GPU::GravityShape{0, 0, 0})
+           HSGPU::GPU::GravityShape shape = HSGPU::GPU::GravityShape{0, 0, 0}, int once = 0)
 {
   GravityArgs a;
+  a.pairs_once = once;
   a.G = G;
   a.eps2 = eps * eps;
   a.cutsq = cut * cut;
@@ -174,7 +175,12 @@ class GravityGpu : public ::testing::TestWithParam<Precision> {
       if (!subset || i % 3 == 1) tgt.push_back(i);
     const double G = 0.7;
     const Result ref = cpu_core(s, tgt, G, c.eps, c.cut);
-    const Result got = gpu(*engine, GetParam(), s, tgt, G, c.eps, c.cut, ev, shape);
+    const Result got = gpu(*engine, GetParam(), s, tgt, G, c.eps, c.cut, ev, shape, once);
+    // pairs_once = 2 runs the pairs-once kernel wherever it applies: all bodies targets,
+    // forces only, open box, no cutoff, single or double precision.
+    const bool once_applies = once == 2 && !subset && !ev && !c.periodic && c.cut <= 0.0 &&
+                              GetParam() != Precision::Mixed;
+    EXPECT_EQ(engine->last_pairs_once(), once_applies) << "pairs once, n=" << c.n;
     const bool fp32 = GetParam() != Precision::Double;
     const double tol = tolerance(GetParam()) * scale;
     const double ef = rel_err(got.f, ref.f, fp32 ? &ref.fslack : nullptr, 3);
@@ -189,11 +195,14 @@ class GravityGpu : public ::testing::TestWithParam<Precision> {
     std::printf("[ GPU %-6s] n=%-6ld %s%s%s%s", name(GetParam()), c.n,
                 c.periodic ? "periodic " : "open ", c.clustered ? "clustered " : "random ",
                 c.cut > 0 ? "cutoff " : "", subset ? "subset " : "");
-    if (shape.splits > 0)
+    if (engine->last_pairs_once())
+      std::printf("pairs once ilp %d ", shape.splits > 0 ? shape.ilp : 0);
+    else if (shape.splits > 0)
       std::printf("shape %dx%d splits %d ", shape.block, shape.ilp, shape.splits);
     std::printf("rel.err f %.2e e %.2e v %.2e\n", ef, ee, ev_);
   }
   std::unique_ptr<GravityEngine> engine;
+  int once = 0;    // GravityArgs::pairs_once
 };
 
 }    // namespace
@@ -256,6 +265,61 @@ TEST_P(GravityGpu, EveryHotShape)
   // Target subset: blocks whose last targets are missing.
   check({4097, false, false, 0.0, 0.05, 20.0}, true, false, 81, 1.0,
         HSGPU::GPU::GravityShape{256, 4, 2});
+}
+
+// The pairs-once kernel (each pair evaluated once for both bodies) with every ILP, on sizes
+// that fill no block (padding), down to one body; unsoftened clustered bodies (the pads and
+// the self pairs must add nothing); and where it does not apply (energy and virial, periodic
+// box, cutoff, a target subset, mixed precision) the engine must fall back.
+TEST_P(GravityGpu, PairsOnce)
+{
+  once = 2;
+  for (int ilp : {2, 4, 8})
+    check({3001, false, false, 0.0, 0.05, 20.0}, false, false, 100 + ilp, 1.0,
+          HSGPU::GPU::GravityShape{0, ilp, 1});
+  for (long n : {1L, 2L, 3L, 97L, 1031L})
+    check({n, false, false, 0.0, 0.05, 20.0}, false, false, 110);
+  // Unsoftened close pairs: single precision as in ClusteredPeriodicNoSoftening; in double
+  // the packed x - lo rounds by up to 7e-15 near x - lo = 38, a few 1e-12 of the force of the
+  // closest pair, for the one-sided kernels too (checked in the line after).
+  const double scale = GetParam() == Precision::Mixed ? 1.0 : 10.0;
+  check({2500, false, true, 0.0, 0.0, 40.0}, false, false, 111, scale);
+  once = 0;
+  check({2500, false, true, 0.0, 0.0, 40.0}, false, false, 111, scale);
+  once = 2;
+  check({2053, false, false, 0.0, 0.05, 20.0}, false, true, 112);
+  check({2053, true, false, 0.0, 0.05, 20.0}, false, false, 113);
+  check({2053, false, false, 3.0, 0.05, 20.0}, false, false, 114);
+  check({4097, false, false, 0.0, 0.05, 20.0}, true, false, 115);
+}
+
+// Many blocks of several slices each (group > 1: sums carried across slices in the partial
+// buffer) against the one-sided kernel of the same precision and the double one; and two
+// calls give identical bits (fixed summation order, no atomics).
+TEST_P(GravityGpu, PairsOnceManyBlocksDeterministic)
+{
+  if (GetParam() == Precision::Mixed) GTEST_SKIP() << "pairs once runs in single and double";
+  const long n = 40000;    // ILP 2: slices of 256, 157 of them: 79 blocks of 2, padded
+  const Cloud s = make_cloud({n, false, true, 0.0, 0.01, 40.0}, 120);
+  std::vector<long> all(n);
+  for (long i = 0; i < n; ++i) all[i] = i;
+  const HSGPU::GPU::GravityShape ilp2{0, 2, 1};
+  const Result once1 = gpu(*engine, GetParam(), s, all, 1.3, 0.01, 0.0, false, ilp2, 2);
+  ASSERT_TRUE(engine->last_pairs_once());
+  const Result once2 = gpu(*engine, GetParam(), s, all, 1.3, 0.01, 0.0, false, ilp2, 2);
+  const Result twice = gpu(*engine, GetParam(), s, all, 1.3, 0.01, 0.0, false);
+  ASSERT_FALSE(engine->last_pairs_once());
+  const Result ref = gpu(*engine, Precision::Double, s, all, 1.3, 0.01, 0.0, false);
+  long same = 0;
+  for (size_t i = 0; i < once1.f.size(); ++i) same += (once1.f[i] == once2.f[i]);
+  EXPECT_EQ(same, (long) once1.f.size()) << "two pairs-once calls differ";
+  const double e_ref = rel_err(once1.f, ref.f), e_twice = rel_err(twice.f, ref.f);
+  EXPECT_LT(e_ref, tolerance(GetParam()));
+  // No worse than the one-sided kernel by more than a factor 2 (or round-off in double).
+  EXPECT_LT(e_ref, 2.0 * e_twice + 1e-14);
+  std::printf("[ GPU %-6s] n=%ld clustered, pairs once ilp 2 against double one-sided: %.2e "
+              "(one-sided %s: %.2e); repeat identical\n",
+              name(GetParam()), n, e_ref, name(GetParam()), e_twice);
 }
 
 // Two bodies at separations from 1e-60 to 1e60, with and without softening: the pair factors

@@ -61,6 +61,8 @@ namespace GPU {
     long nsrc = 0, ntgt = 0;
     double max_mass = 0.0;
     std::vector<int> host_tidx;
+    bool targets_identity = false;    // target i is source i, for all i < ntgt
+    bool last_once = false;
     float kernel_ms = 0.0f;
   };
 
@@ -111,6 +113,10 @@ namespace GPU {
   {
     return impl->kernel_ms;
   }
+  bool GravityEngine::last_pairs_once() const
+  {
+    return impl->last_once;
+  }
 
   void GravityEngine::set_sources(long n, const double *x, const double *m, bool masses_changed)
   {
@@ -138,7 +144,11 @@ namespace GPU {
     for (long i = 0; same && i < ntgt; ++i) same = (impl->host_tidx[i] == (int) index[i]);
     if (same) return;
     impl->host_tidx.resize(ntgt);
-    for (long i = 0; i < ntgt; ++i) impl->host_tidx[i] = (int) index[i];
+    impl->targets_identity = true;
+    for (long i = 0; i < ntgt; ++i) {
+      impl->host_tidx[i] = (int) index[i];
+      impl->targets_identity &= (index[i] == i);
+    }
     impl->tidx.reserve(ntgt * sizeof(int) + 1, "cudaMalloc(targets)");
     check(cudaMemcpyAsync(impl->tidx.ptr, impl->host_tidx.data(), ntgt * sizeof(int),
                           cudaMemcpyHostToDevice, impl->stream),
@@ -155,6 +165,12 @@ namespace GPU {
   {
     check(cudaSetDevice(impl->device), "cudaSetDevice");
     const long n = impl->nsrc, nt = impl->ntgt;
+    impl->last_once = a.pairs_once > 0 && pairs_once_supported(p, a) && impl->targets_identity &&
+                      nt == n && (a.pairs_once > 1 || pairs_once_pays(p, n));
+    if (impl->last_once) {
+      compute_pairs_once(p, a, f, shape.splits > 0 ? shape.ilp : 0);
+      return;
+    }
     if (shape.splits <= 0) shape = choose_shape(p, a, nt, n, impl->num_sms);
     impl->src.reserve(source_bytes(p) * n + 1, "cudaMalloc(sources)");
     impl->scratch.reserve(scratch_bytes(p, shape, nt, a.energy_virial) + 1, "cudaMalloc(scratch)");
@@ -207,6 +223,28 @@ namespace GPU {
                             impl->stream),
             "cudaMemcpy(virials)");
     }
+    check(cudaStreamSynchronize(impl->stream), "gravity kernel (synchronize)");
+    check(cudaEventElapsedTime(&impl->kernel_ms, impl->start, impl->stop), "cudaEventElapsedTime");
+  }
+
+  void GravityEngine::compute_pairs_once(Precision p, const GravityArgs &a, double *f, int ilp)
+  {
+    const long n = impl->nsrc;
+    const PairsOnceLayout L = pairs_once_layout(p, n, ilp);
+    impl->src.reserve(source_bytes(p) * L.npad, "cudaMalloc(sources)");
+    impl->scratch.reserve(pairs_once_scratch_bytes(p, L), "cudaMalloc(scratch)");
+    impl->f.reserve(3 * n * sizeof(double) + 1, "cudaMalloc(forces)");
+    check(pack_sources(p, (const double *) impl->x.ptr, (const double *) impl->m.ptr, n, a,
+                       impl->src.ptr, impl->stream),
+          "pack_sources kernel");
+    check(cudaEventRecord(impl->start, impl->stream), "cudaEventRecord");
+    check(compute_gravity_pairs_once(p, L, impl->src.ptr, n, (const double *) impl->m.ptr, a,
+                                     impl->scratch.ptr, (double *) impl->f.ptr, impl->stream),
+          "gravity kernel (pairs once)");
+    check(cudaEventRecord(impl->stop, impl->stream), "cudaEventRecord");
+    check(cudaMemcpyAsync(f, impl->f.ptr, 3 * n * sizeof(double), cudaMemcpyDeviceToHost,
+                          impl->stream),
+          "cudaMemcpy(forces)");
     check(cudaStreamSynchronize(impl->stream), "gravity kernel (synchronize)");
     check(cudaEventElapsedTime(&impl->kernel_ms, impl->start, impl->stop), "cudaEventElapsedTime");
   }

@@ -41,16 +41,20 @@ namespace GPU {
     void set_targets(long ntgt, const long *index);
 
     /// Forces f (3 per target) and, with a.energy_virial, per-target half energies e and
-    /// half virials v (6 per target).  shape.splits <= 0 lets the engine choose the shape.
+    /// half virials v (6 per target).  shape.splits <= 0 lets the engine choose the shape;
+    /// when the pairs-once kernel runs, a given shape's ilp (2, 4 or 8) is its ILP.
     void compute(Precision p, const GravityArgs &a, double *f, double *e, double *v,
                  GravityShape shape = GravityShape{0, 0, 0});
 
     /// Kernel time of the last compute() in milliseconds (CUDA events).
     float last_kernel_ms() const;
+    /// Whether the last compute() evaluated each pair once (GravityArgs::pairs_once).
+    bool last_pairs_once() const;
 
    private:
     struct Impl;
     Impl *impl;
+    void compute_pairs_once(Precision p, const GravityArgs &a, double *f, int ilp);
   };
 
 }    // namespace GPU

@@ -35,6 +35,10 @@ namespace GPU {
   {
     return 0.0f;
   }
+  bool GravityEngine::last_pairs_once() const
+  {
+    return false;
+  }
 
 }    // namespace GPU
 }    // namespace HSGPU

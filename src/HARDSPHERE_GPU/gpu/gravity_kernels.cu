@@ -17,6 +17,7 @@
    Global memory traffic is negligible: each tile is read once per block from L2. */
 
 #include "gravity_kernels.cuh"
+#include "pair_math.cuh"
 
 #include <cub/device/device_radix_sort.cuh>
 
@@ -29,12 +30,6 @@ namespace GPU {
   namespace {
 
     constexpr int REF_BLOCK = 256;
-
-    // Packed double-precision source (CUDA 13 deprecates the unsized double4).
-    struct __align__(32) Src64
-    {
-      double x, y, z, w;
-    };
 
     // Arguments in the form the kernels use (floats where the precision wants them).
     template <class R> struct KArgs {
@@ -88,58 +83,6 @@ namespace GPU {
     {
       t.a[0] = t.a[1] = t.a[2] = t.e = (R) 0;
       for (int k = 0; k < 6; ++k) t.v[k] = (R) 0;
-    }
-
-    __device__ inline float rint_p(float x)
-    {
-      return rintf(x);
-    }
-    __device__ inline double rint_p(double x)
-    {
-      return rint(x);
-    }
-    __device__ inline float fma_p(float a, float b, float c)
-    {
-      return fmaf(a, b, c);
-    }
-    __device__ inline double fma_p(double a, double b, double c)
-    {
-      return fma(a, b, c);
-    }
-
-    // The pair factors s = m / r^3 and (EV) mi = m / r for r^2 = r2 (softening included).
-    // fp32: one MUFU.RSQ (--use_fast_math), then 3 FMUL.
-    template <bool EV> __device__ inline void pair_factors(float r2, float m, float &s, float &mi)
-    {
-      const float inv = rsqrtf(r2);
-      mi = m * inv;
-      s = mi * (inv * inv);
-    }
-
-    // fp64 has no full-precision reciprocal square root in hardware.  Start from the
-    // approximation y (rsqrt.approx.ftz.f64) and correct it with e = 1 - r2 y^2:
-    //   1/r   = y   (1 - e)^(-1/2) = y   (1 + e/2 + 3/8 e^2 + ...)
-    //   1/r^3 = y^3 (1 - e)^(-3/2) = y^3 (1 + 3/2 e + 15/8 e^2 + ...)
-    // The next terms are of order e^3, far below double rounding for the approximation's
-    // |e| (test_gravity_gpu's PairFactorsAcrossMagnitudes checks two-body forces and energies
-    // against long double).
-    // Forces only: 7 fp64 instructions and one MUFU.RSQ64H here; CUDA's rsqrt also checks its
-    // input for special values with integer tests and a branch to a slow path on every call.
-    // In the compiled sm_90 loop the whole interaction takes 16 fp64 instructions (9 DFMA,
-    // 4 DMUL, 3 DADD) against about 18 plus 7 integer, move and branch instructions with
-    // rsqrt: 0.85-0.90e12 interactions/s against 0.74e12 (doc/bench_gravity_gpu.md).
-    // Subnormal r2 counts as zero (ftz).
-    template <bool EV>
-    __device__ inline void pair_factors(double r2, double m, double &s, double &mi)
-    {
-      double y;
-      asm("rsqrt.approx.ftz.f64 %0, %1;" : "=d"(y) : "d"(r2));
-      const double y2 = y * y;
-      const double e = fma(-r2, y2, 1.0);
-      const double m1 = m * y;
-      const double m3 = m1 * y2;
-      s = fma(m3, e * fma(15.0 / 8.0, e, 1.5), m3);
-      if (EV) mi = fma(m1, e * fma(3.0 / 8.0, e, 0.5), m1);
     }
 
     // Adds the pull of one source (mass mj, displacement d = x_j - x_i) on one target.
@@ -352,8 +295,10 @@ namespace GPU {
 
     // Sums the splits of each target in split order and scales by G m_i:
     // F = G m_i a,  e = -G m_i E / 2,  W = -G m_i V / 2.  One thread per target.
+    // Partials of split s for target ti sit at s * stride + ti (stride >= ntgt); tidx null:
+    // target ti is source ti.
     template <class Part>
-    __global__ void finalize(const Part *__restrict__ part, int splits, long ntgt,
+    __global__ void finalize(const Part *__restrict__ part, int splits, long stride, long ntgt,
                              const int *__restrict__ tidx, const int *__restrict__ slot,
                              const double *__restrict__ m, double G, bool ev,
                              double *__restrict__ f, double *__restrict__ e, double *__restrict__ v)
@@ -361,18 +306,18 @@ namespace GPU {
       const long ti = blockIdx.x * (long) blockDim.x + threadIdx.x;
       if (ti >= ntgt) return;
       const long out = slot ? slot[ti] : ti;
-      const double gm = G * m[tidx[ti]];
+      const double gm = G * m[tidx ? tidx[ti] : ti];
       double a[3] = {0, 0, 0};
       for (int s = 0; s < splits; ++s)
-        for (int c = 0; c < 3; ++c) a[c] += (double) part[3 * (s * ntgt + ti) + c];
+        for (int c = 0; c < 3; ++c) a[c] += (double) part[3 * (s * stride + ti) + c];
       for (int c = 0; c < 3; ++c) f[3 * out + c] = gm * a[c];
       if (!ev) return;
-      const Part *pe = part + 3 * ntgt * splits;
-      const Part *pv = pe + ntgt * splits;
+      const Part *pe = part + 3 * stride * splits;
+      const Part *pv = pe + stride * splits;
       double es = 0.0, vs[6] = {0, 0, 0, 0, 0, 0};
       for (int s = 0; s < splits; ++s) {
-        es += (double) pe[s * ntgt + ti];
-        for (int c = 0; c < 6; ++c) vs[c] += (double) pv[6 * (s * ntgt + ti) + c];
+        es += (double) pe[s * stride + ti];
+        for (int c = 0; c < 6; ++c) vs[c] += (double) pv[6 * (s * stride + ti) + c];
       }
       e[out] = -0.5 * gm * es;
       for (int c = 0; c < 6; ++c) v[6 * out + c] = -0.5 * gm * vs[c];
@@ -646,14 +591,23 @@ namespace GPU {
     else
       err = dispatch_flags<2>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
     if (err != cudaSuccess) return err;
+    return sum_partials(p, scratch, s.splits, ntgt, ntgt, tidx, slot, m, a.G, a.energy_virial, f, e,
+                        v, st);
+  }
+
+  cudaError_t sum_partials(Precision p, const void *part, int nparts, long stride, long ntgt,
+                           const int *tidx, const int *slot, const double *m, double G, bool ev,
+                           double *f, double *e, double *v, cudaStream_t st)
+  {
+    if (ntgt <= 0) return cudaSuccess;
     const int block = 256;
     const unsigned grid = (unsigned) ((ntgt + block - 1) / block);
     if (p == Precision::Single)
-      finalize<float><<<grid, block, 0, st>>>((const float *) scratch, s.splits, ntgt, tidx, slot,
-                                              m, a.G, a.energy_virial, f, e, v);
+      finalize<float><<<grid, block, 0, st>>>((const float *) part, nparts, stride, ntgt, tidx,
+                                              slot, m, G, ev, f, e, v);
     else
-      finalize<double><<<grid, block, 0, st>>>((const double *) scratch, s.splits, ntgt, tidx, slot,
-                                               m, a.G, a.energy_virial, f, e, v);
+      finalize<double><<<grid, block, 0, st>>>((const double *) part, nparts, stride, ntgt, tidx,
+                                               slot, m, G, ev, f, e, v);
     return cudaGetLastError();
   }
 

@@ -68,6 +68,48 @@ namespace GPU {
                               double max_mass, const GravityArgs &a, void *scratch, double *f,
                               double *e, double *v, cudaStream_t st);
 
+  /// Adds nparts partial sums per target in order and scales by G m (finalize of
+  /// compute_gravity and compute_gravity_pairs_once): the partials of part k for target t
+  /// sit at k * stride + t (3 values each, then with ev 1 and 6 more per part and target).
+  /// tidx null: target t is source t.
+  cudaError_t sum_partials(Precision p, const void *part, int nparts, long stride, long ntgt,
+                           const int *tidx, const int *slot, const double *m, double G, bool ev,
+                           double *f, double *e, double *v, cudaStream_t st);
+
+  // ------------------------------------------------------------------ pairs once
+  // With every body a target (one MPI rank), Newton's third law lets each pair be evaluated
+  // once for both bodies (gravity_pairs_once.cu): about 1.4x fewer instructions per
+  // interaction than the one-sided kernels.  Forces only, open box, no cutoff, single or
+  // double precision; everything else takes compute_gravity.
+
+  /// How the bodies are blocked: nb blocks of `group` slices of 128 * ilp bodies, the last
+  /// block padded with massless bodies to npad = nb * group * 128 * ilp.
+  struct PairsOnceLayout {
+    int ilp;
+    int group;
+    int nb;
+    long npad;
+  };
+
+  /// Whether compute_gravity_pairs_once handles this precision and these flags.
+  bool pairs_once_supported(Precision p, const GravityArgs &a);
+
+  /// Whether the pairs-once kernel is faster than the one-sided ones for n bodies (measured).
+  bool pairs_once_pays(Precision p, long n);
+
+  /// Layout for n bodies; ilp 2, 4 or 8 (anything else: the default of the precision).
+  PairsOnceLayout pairs_once_layout(Precision p, long n, int ilp = 0);
+
+  /// Bytes of scratch space (partial sums) compute_gravity_pairs_once needs.
+  size_t pairs_once_scratch_bytes(Precision p, const PairsOnceLayout &L);
+
+  /// Forces f (3n doubles, in source order) on all n sources from all others, each pair
+  /// evaluated once.  src: packed sources (pack_sources) with room for L.npad of them (the
+  /// pads are filled here); m: the n masses.
+  cudaError_t compute_gravity_pairs_once(Precision p, const PairsOnceLayout &L, void *src, long n,
+                                         const double *m, const GravityArgs &a, void *scratch,
+                                         double *f, cudaStream_t st);
+
   /// The plain reference kernel used as the benchmark baseline: one body per thread, 256-body
   /// shared-memory tiles, fp32 with rsqrtf, no periodic images, forces only.
   /// pos: float4 (x, y, z, m) for n bodies; acc: float4 per body (acceleration / G).

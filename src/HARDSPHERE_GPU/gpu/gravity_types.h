@@ -21,6 +21,10 @@ namespace GPU {
     double prd[3];
     int periodic[3];
     bool energy_virial;    // also per-target energy and virial
+    /// Newton's third law: when every source is a target, the engine may evaluate each pair
+    /// once for both bodies (compute_gravity_pairs_once).  0: never; 1: where it is faster
+    /// (N above a measured threshold); 2: wherever it is supported (benchmarks, tests).
+    int pairs_once = 0;
   };
 
   /// Launch shape of the tiled kernel.
