@@ -216,7 +216,7 @@ void PairGravity::setup_gpu()
     static const char *names[] = {"single", "mixed", "double"};
     utils::logmesg(lmp, "Pair gravity: CUDA path, precision {}, rank 0 on device {} ({})\n",
                    names[precision], device, HSGPU::GPU::device_description(device));
-    if (force->newton_pair && comm->nprocs == 1 && precision != (int) HSGPU::GPU::Precision::Mixed)
+    if (force->newton_pair && comm->nprocs == 1)
       utils::logmesg(lmp, "Pair gravity: newton on, one rank: each pair evaluated once on "
                           "force-only steps of open boxes without cutoff, from 32768 atoms\n");
   }

@@ -177,9 +177,8 @@ class GravityGpu : public ::testing::TestWithParam<Precision> {
     const Result ref = cpu_core(s, tgt, G, c.eps, c.cut);
     const Result got = gpu(*engine, GetParam(), s, tgt, G, c.eps, c.cut, ev, shape, once);
     // pairs_once = 2 runs the pairs-once kernel wherever it applies: all bodies targets,
-    // forces only, open box, no cutoff, single or double precision.
-    const bool once_applies = once == 2 && !subset && !ev && !c.periodic && c.cut <= 0.0 &&
-                              GetParam() != Precision::Mixed;
+    // forces only, open box, no cutoff.
+    const bool once_applies = once == 2 && !subset && !ev && !c.periodic && c.cut <= 0.0;
     EXPECT_EQ(engine->last_pairs_once(), once_applies) << "pairs once, n=" << c.n;
     const bool fp32 = GetParam() != Precision::Double;
     const double tol = tolerance(GetParam()) * scale;
@@ -270,7 +269,7 @@ TEST_P(GravityGpu, EveryHotShape)
 // The pairs-once kernel (each pair evaluated once for both bodies) with every ILP, on sizes
 // that fill no block (padding), down to one body; unsoftened clustered bodies (the pads and
 // the self pairs must add nothing); and where it does not apply (energy and virial, periodic
-// box, cutoff, a target subset, mixed precision) the engine must fall back.
+// box, cutoff, a target subset) the engine must fall back.
 TEST_P(GravityGpu, PairsOnce)
 {
   once = 2;
@@ -298,7 +297,6 @@ TEST_P(GravityGpu, PairsOnce)
 // calls give identical bits (fixed summation order, no atomics).
 TEST_P(GravityGpu, PairsOnceManyBlocksDeterministic)
 {
-  if (GetParam() == Precision::Mixed) GTEST_SKIP() << "pairs once runs in single and double";
   const long n = 40000;    // ILP 2: slices of 256, 157 of them: 79 blocks of 2, padded
   const Cloud s = make_cloud({n, false, true, 0.0, 0.01, 40.0}, 120);
   std::vector<long> all(n);

@@ -81,7 +81,7 @@ TEST(PairGravityGpu, SingleMatchesCpu)
 // newton on (the default) on one rank lets the GPU path evaluate each pair once on force-only
 // steps, from N = 32768 on.  A short run with newton on must follow the run with newton off
 // (every pair evaluated for each of its atoms): in double precision to round-off, in single
-// precision to fp32 accuracy against the double run.
+// and mixed precision to their accuracy against the double run.
 namespace {
 std::vector<double> run_open_cloud(const std::string &newton, const std::string &precision)
 {
@@ -115,14 +115,18 @@ TEST(PairGravityGpu, NewtonOnPairsOnceFollowsNewtonOff)
   const std::vector<double> off = run_open_cloud("off", "double");
   const std::vector<double> on = run_open_cloud("on", "double");
   const std::vector<double> single_on = run_open_cloud("on", "single");
+  const std::vector<double> mixed_on = run_open_cloud("on", "mixed");
   const size_t n3 = off.size() / 2;
   const double dx = max_rel(on, off, 0, n3), df = max_rel(on, off, n3, 2 * n3);
   const double sx = max_rel(single_on, off, 0, n3), sf = max_rel(single_on, off, n3, 2 * n3);
+  const double mx = max_rel(mixed_on, off, 0, n3), mf = max_rel(mixed_on, off, n3, 2 * n3);
   EXPECT_LT(dx, 1e-13);
   EXPECT_LT(df, 1e-11);
   EXPECT_LT(sx, 1e-6);
   EXPECT_LT(sf, 2e-4);
+  EXPECT_LT(mx, 1e-7);
+  EXPECT_LT(mf, 2e-5);
   std::printf("[ LAMMPS GPU ] N = 33000, 4 steps, newton on against off: double x %.2e f %.2e; "
-              "single x %.2e f %.2e\n",
-              dx, df, sx, sf);
+              "single x %.2e f %.2e; mixed x %.2e f %.2e\n",
+              dx, df, sx, sf, mx, mf);
 }

@@ -62,9 +62,35 @@ namespace GPU {
     double max_mass = 0.0;
     std::vector<int> host_tidx;
     bool targets_identity = false;    // target i is source i, for all i < ntgt
+    // Mixed: the targets in Z-curve order (targets) and their result slots, sorted again
+    // when they changed or every SORT_INTERVAL calls.  Called after the start event, so the
+    // kernel time includes the sort on the calls that redo it.
+    void order_targets(const GravityArgs &a, const int *&targets, const int *&out_slot);
     bool last_once = false;
     float kernel_ms = 0.0f;
   };
+
+  void GravityEngine::Impl::order_targets(const GravityArgs &a, const int *&targets,
+                                          const int *&out_slot)
+  {
+    const long nt = ntgt;
+    if (!sorted || calls_since_sort >= SORT_INTERVAL) {
+      const size_t temp = sort_temp_bytes(nt);
+      keys.reserve(2 * nt * sizeof(unsigned), "cudaMalloc(sort keys)");
+      tsorted.reserve(nt * sizeof(int), "cudaMalloc(sorted targets)");
+      slot.reserve(nt * sizeof(int), "cudaMalloc(target slots)");
+      sort_temp.reserve(temp, "cudaMalloc(sort space)");
+      sorted = true;
+      calls_since_sort = 0;
+      check(sort_targets((const double *) x.ptr, (const int *) tidx.ptr, nt, a,
+                         (unsigned *) keys.ptr, (int *) tsorted.ptr, (int *) slot.ptr,
+                         sort_temp.ptr, temp, stream),
+            "target sort");
+    }
+    ++calls_since_sort;
+    targets = (const int *) tsorted.ptr;
+    out_slot = (const int *) slot.ptr;
+  }
 
   GravityEngine::GravityEngine(int device) : impl(new Impl)
   {
@@ -182,30 +208,10 @@ namespace GPU {
     check(pack_sources(p, (const double *) impl->x.ptr, (const double *) impl->m.ptr, n, a,
                        impl->src.ptr, impl->stream),
           "pack_sources kernel");
-    const size_t temp = (p == Precision::Mixed && nt > 0) ? sort_temp_bytes(nt) : 0;
-    const bool resort = temp > 0 && (!impl->sorted || impl->calls_since_sort >= SORT_INTERVAL);
-    if (resort) {
-      impl->keys.reserve(2 * nt * sizeof(unsigned), "cudaMalloc(sort keys)");
-      impl->tsorted.reserve(nt * sizeof(int), "cudaMalloc(sorted targets)");
-      impl->slot.reserve(nt * sizeof(int), "cudaMalloc(target slots)");
-      impl->sort_temp.reserve(temp, "cudaMalloc(sort space)");
-    }
     check(cudaEventRecord(impl->start, impl->stream), "cudaEventRecord");
     const int *targets = (const int *) impl->tidx.ptr;
     const int *slot = nullptr;
-    if (resort) {
-      impl->sorted = true;
-      impl->calls_since_sort = 0;
-      check(sort_targets((const double *) impl->x.ptr, targets, nt, a, (unsigned *) impl->keys.ptr,
-                         (int *) impl->tsorted.ptr, (int *) impl->slot.ptr, impl->sort_temp.ptr,
-                         temp, impl->stream),
-            "target sort");
-    }
-    if (temp > 0) {
-      ++impl->calls_since_sort;
-      targets = (const int *) impl->tsorted.ptr;
-      slot = (const int *) impl->slot.ptr;
-    }
+    if (p == Precision::Mixed && nt > 0) impl->order_targets(a, targets, slot);
     check(compute_gravity(p, shape, impl->src.ptr, n, targets, slot, nt,
                           (const double *) impl->m.ptr, impl->max_mass, a, impl->scratch.ptr,
                           (double *) impl->f.ptr, (double *) impl->e.ptr, (double *) impl->v.ptr,
@@ -231,14 +237,15 @@ namespace GPU {
   {
     const long n = impl->nsrc;
     const PairsOnceLayout L = pairs_once_layout(p, n, ilp);
-    impl->src.reserve(source_bytes(p) * L.npad, "cudaMalloc(sources)");
+    impl->src.reserve(pairs_once_source_bytes(p, L), "cudaMalloc(sources)");
     impl->scratch.reserve(pairs_once_scratch_bytes(p, L), "cudaMalloc(scratch)");
     impl->f.reserve(3 * n * sizeof(double) + 1, "cudaMalloc(forces)");
-    check(pack_sources(p, (const double *) impl->x.ptr, (const double *) impl->m.ptr, n, a,
-                       impl->src.ptr, impl->stream),
-          "pack_sources kernel");
     check(cudaEventRecord(impl->start, impl->stream), "cudaEventRecord");
-    check(compute_gravity_pairs_once(p, L, impl->src.ptr, n, (const double *) impl->m.ptr, a,
+    // Mixed: blocks of bodies that are close in space (the targets are all bodies, in order).
+    const int *order = nullptr, *slot = nullptr;
+    if (p == Precision::Mixed) impl->order_targets(a, order, slot);
+    check(compute_gravity_pairs_once(p, L, (const double *) impl->x.ptr,
+                                     (const double *) impl->m.ptr, n, order, slot, a, impl->src.ptr,
                                      impl->scratch.ptr, (double *) impl->f.ptr, impl->stream),
           "gravity kernel (pairs once)");
     check(cudaEventRecord(impl->stop, impl->stream), "cudaEventRecord");

@@ -55,21 +55,24 @@ namespace GPU {
 
     // ---------------------------------------------------------------- packing
     // One thread per source; reads 32 B, writes 16 or 32 B.
+    // Source k is body order[k] (order null: body k).
     __global__ void pack_single(const double *__restrict__ x, const double *__restrict__ m, long n,
-                                double3 lo, float4 *__restrict__ src)
+                                const int *__restrict__ order, double3 lo, float4 *__restrict__ src)
     {
-      const long i = blockIdx.x * (long) blockDim.x + threadIdx.x;
-      if (i >= n) return;
-      src[i] = make_float4((float) (x[3 * i] - lo.x), (float) (x[3 * i + 1] - lo.y),
+      const long k = blockIdx.x * (long) blockDim.x + threadIdx.x;
+      if (k >= n) return;
+      const long i = order ? order[k] : k;
+      src[k] = make_float4((float) (x[3 * i] - lo.x), (float) (x[3 * i + 1] - lo.y),
                            (float) (x[3 * i + 2] - lo.z), (float) m[i]);
     }
 
     __global__ void pack_double(const double *__restrict__ x, const double *__restrict__ m, long n,
-                                double3 lo, Src64 *__restrict__ src)
+                                const int *__restrict__ order, double3 lo, Src64 *__restrict__ src)
     {
-      const long i = blockIdx.x * (long) blockDim.x + threadIdx.x;
-      if (i >= n) return;
-      src[i] = Src64{x[3 * i] - lo.x, x[3 * i + 1] - lo.y, x[3 * i + 2] - lo.z, m[i]};
+      const long k = blockIdx.x * (long) blockDim.x + threadIdx.x;
+      if (k >= n) return;
+      const long i = order ? order[k] : k;
+      src[k] = Src64{x[3 * i] - lo.x, x[3 * i + 1] - lo.y, x[3 * i + 2] - lo.z, m[i]};
     }
 
     // ---------------------------------------------------------------- pair arithmetic
@@ -558,16 +561,16 @@ namespace GPU {
   }
 
   cudaError_t pack_sources(Precision p, const double *x, const double *m, long n,
-                           const GravityArgs &a, void *src, cudaStream_t st)
+                           const GravityArgs &a, void *src, cudaStream_t st, const int *order)
   {
     if (n <= 0) return cudaSuccess;
     const int block = 256;
     const unsigned grid = (unsigned) ((n + block - 1) / block);
     const double3 lo = make_double3(a.lo[0], a.lo[1], a.lo[2]);
     if (p == Precision::Single)
-      pack_single<<<grid, block, 0, st>>>(x, m, n, lo, (float4 *) src);
+      pack_single<<<grid, block, 0, st>>>(x, m, n, order, lo, (float4 *) src);
     else
-      pack_double<<<grid, block, 0, st>>>(x, m, n, lo, (Src64 *) src);
+      pack_double<<<grid, block, 0, st>>>(x, m, n, order, lo, (Src64 *) src);
     return cudaGetLastError();
   }
 

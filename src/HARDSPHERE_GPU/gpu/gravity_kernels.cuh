@@ -45,9 +45,10 @@ namespace GPU {
   /// Bytes of scratch space compute_gravity needs for this shape (split partial sums).
   size_t scratch_bytes(Precision p, const GravityShape &s, long ntgt, bool energy_virial);
 
-  /// Pack positions and masses into src.
+  /// Pack positions and masses into src; source k is body order[k] (order null: body k).
   cudaError_t pack_sources(Precision p, const double *x, const double *m, long n,
-                           const GravityArgs &a, void *src, cudaStream_t st);
+                           const GravityArgs &a, void *src, cudaStream_t st,
+                           const int *order = nullptr);
 
   /// Bytes of temporary storage sort_targets needs for ntgt targets.
   size_t sort_temp_bytes(long ntgt);
@@ -79,8 +80,8 @@ namespace GPU {
   // ------------------------------------------------------------------ pairs once
   // With every body a target (one MPI rank), Newton's third law lets each pair be evaluated
   // once for both bodies (gravity_pairs_once.cu): about 1.4x fewer instructions per
-  // interaction than the one-sided kernels.  Forces only, open box, no cutoff, single or
-  // double precision; everything else takes compute_gravity.
+  // interaction than the one-sided kernels.  Forces only, open box, no cutoff; everything
+  // else takes compute_gravity.
 
   /// How the bodies are blocked: nb blocks of `group` slices of 128 * ilp bodies, the last
   /// block padded with massless bodies to npad = nb * group * 128 * ilp.
@@ -91,24 +92,28 @@ namespace GPU {
     long npad;
   };
 
-  /// Whether compute_gravity_pairs_once handles this precision and these flags.
+  /// Whether compute_gravity_pairs_once handles these flags.
   bool pairs_once_supported(Precision p, const GravityArgs &a);
 
   /// Whether the pairs-once kernel is faster than the one-sided ones for n bodies (measured).
   bool pairs_once_pays(Precision p, long n);
 
-  /// Layout for n bodies; ilp 2, 4 or 8 (anything else: the default of the precision).
+  /// Layout for n bodies; ilp 2, 4 or 8 (anything else: the measured default for p and n).
   PairsOnceLayout pairs_once_layout(Precision p, long n, int ilp = 0);
 
-  /// Bytes of scratch space (partial sums) compute_gravity_pairs_once needs.
+  /// Bytes of packed sources (including pads) and of scratch space (partial sums)
+  /// compute_gravity_pairs_once needs.
+  size_t pairs_once_source_bytes(Precision p, const PairsOnceLayout &L);
   size_t pairs_once_scratch_bytes(Precision p, const PairsOnceLayout &L);
 
-  /// Forces f (3n doubles, in source order) on all n sources from all others, each pair
-  /// evaluated once.  src: packed sources (pack_sources) with room for L.npad of them (the
-  /// pads are filled here); m: the n masses.
-  cudaError_t compute_gravity_pairs_once(Precision p, const PairsOnceLayout &L, void *src, long n,
-                                         const double *m, const GravityArgs &a, void *scratch,
-                                         double *f, cudaStream_t st);
+  /// Forces f (3n doubles) on all n bodies (positions x, masses m on the device) from all
+  /// others, each pair evaluated once.  The bodies are packed into src in the order `order`
+  /// (Mixed: the Z-curve order of sort_targets, so that blocks are compact; null: as they
+  /// are), and body order[k]'s force goes to slot[k] (null: k).
+  cudaError_t compute_gravity_pairs_once(Precision p, const PairsOnceLayout &L, const double *x,
+                                         const double *m, long n, const int *order, const int *slot,
+                                         const GravityArgs &a, void *src, void *scratch, double *f,
+                                         cudaStream_t st);
 
   /// The plain reference kernel used as the benchmark baseline: one body per thread, 256-body
   /// shared-memory tiles, fp32 with rsqrtf, no periodic images, forces only.

@@ -20,8 +20,13 @@
    slot L, from task (K, L) or (L, K).  Every entry is written by exactly one task and
    sum_partials adds the nb partners in order: deterministic, no atomics.
 
+   Mixed precision: the bodies come in Z-curve order (the engine's sort), so a block holds
+   bodies close in space; each task converts positions to fp32 relative to the first body of
+   its block I (in double), pair arithmetic is fp32, and the fp32 sums over each slice of J
+   (and over each chunk, for the reaction sums) are added into fp64 partial sums.
+
    Launch: grid nb (nb + 1) / 2 blocks of PO_THREADS threads; shared memory 3 * slice values
-   of R (the reaction sums of one slice of J).
+   of the partial-sum type (the reaction sums of one slice of J).
    Per pair, single precision, forces only: 3 FADD (d), 3 FFMA (r^2 + eps^2), 1 MUFU (rsqrt),
    2 FMUL (1/r^3), 2 FMUL (m_j/r^3, m_i/r^3), 6 FFMA (both sums) = 17 issued instructions for
    two interactions, plus 7 SHFL per lane and rotation step shared by the ILP pairs of the
@@ -51,11 +56,22 @@ namespace GPU {
     // exactly zero (r^2 overflows to infinity in fp32; in fp64 the zero mass does it).
     constexpr double PO_PAD_COORD = -1.0e30;
 
-    template <class R> struct PoTypes;
-    template <> struct PoTypes<float> {
+    // Per precision: pair arithmetic R, partial sums Part, packed source Src; Mixed converts
+    // positions to R relative to the origin of the task's block I, in double.
+    template <int PREC> struct PoTypes;
+    template <> struct PoTypes<0> {    // Single
+      using R = float;
+      using Part = float;
       using Src = float4;
     };
-    template <> struct PoTypes<double> {
+    template <> struct PoTypes<1> {    // Mixed
+      using R = float;
+      using Part = double;
+      using Src = Src64;
+    };
+    template <> struct PoTypes<2> {    // Double
+      using R = double;
+      using Part = double;
       using Src = Src64;
     };
 
@@ -81,15 +97,28 @@ namespace GPU {
       return __shfl_sync(0xffffffffu, v, from);
     }
 
-    template <class R, int ILP>
-    __global__ void __launch_bounds__(PO_THREADS)
-        pairs_once_kernel(const typename PoTypes<R>::Src *__restrict__ src, int nb, int group,
-                          long npad, R eps2, R *__restrict__ part)
+    // A coordinate in the kernel's arithmetic: Mixed relative to the origin o, in double.
+    template <bool MIXED, class R, class S> __device__ inline R rel(S x, double o)
     {
-      using Src = typename PoTypes<R>::Src;
+      if constexpr (MIXED)
+        return (R) (x - o);
+      else
+        return (R) x;
+    }
+
+    template <int PREC, int ILP>
+    __global__ void __launch_bounds__(PO_THREADS)
+        pairs_once_kernel(const typename PoTypes<PREC>::Src *__restrict__ src, int nb, int group,
+                          long npad, typename PoTypes<PREC>::R eps2,
+                          typename PoTypes<PREC>::Part *__restrict__ part)
+    {
+      using R = typename PoTypes<PREC>::R;
+      using Part = typename PoTypes<PREC>::Part;
+      using Src = typename PoTypes<PREC>::Src;
+      constexpr bool MIXED = (PREC == 1);
       constexpr int SLICE = PO_THREADS * ILP;
       constexpr int CHUNKS = SLICE / 32;
-      __shared__ R reac[3 * SLICE];
+      __shared__ Part reac[3 * SLICE];
 
       const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
       const int next = (lane + 1) & 31;
@@ -97,11 +126,20 @@ namespace GPU {
       task_blocks(blockIdx.x, nb, I, J);
       const bool diag = (I == J);
       const long bsize = (long) group * SLICE;
+      // Mixed: positions relative to the first body of block I (a real body: every block
+      // starts below n), so that nearby pairs keep their digits.
+      double o[3] = {0.0, 0.0, 0.0};
+      if constexpr (MIXED) {
+        const Src s = src[I * bsize];
+        o[0] = s.x;
+        o[1] = s.y;
+        o[2] = s.z;
+      }
 
       for (int gj = 0; gj < group; ++gj) {
         const long jb = J * bsize + (long) gj * SLICE;
         if (!diag) {
-          for (int q = threadIdx.x; q < 3 * SLICE; q += PO_THREADS) reac[q] = (R) 0;
+          for (int q = threadIdx.x; q < 3 * SLICE; q += PO_THREADS) reac[q] = (Part) 0;
           __syncthreads();
         }
         for (int gi = 0; gi < group; ++gi) {
@@ -110,14 +148,14 @@ namespace GPU {
 #pragma unroll
           for (int q = 0; q < ILP; ++q) {
             const Src s = src[ib + 32 * q];
-            xi[q] = s.x;
-            yi[q] = s.y;
-            zi[q] = s.z;
-            mi[q] = s.w;
-            if (gj == 0) {
+            xi[q] = rel<MIXED, R>(s.x, o[0]);
+            yi[q] = rel<MIXED, R>(s.y, o[1]);
+            zi[q] = rel<MIXED, R>(s.z, o[2]);
+            mi[q] = (R) s.w;
+            if (MIXED || gj == 0) {
               ax[q] = ay[q] = az[q] = (R) 0;
             } else {    // this task's own partner slot, written at gj - 1 by this thread
-              const R *p = part + 3 * (J * npad + ib + 32 * q);
+              const Part *p = part + 3 * (J * npad + ib + 32 * q);
               ax[q] = p[0];
               ay[q] = p[1];
               az[q] = p[2];
@@ -127,7 +165,9 @@ namespace GPU {
           for (int t = 0; t < CHUNKS; ++t) {
             const int c = (t + warp * ILP) % CHUNKS;    // distinct for the 4 warps
             const Src s = src[jb + 32 * c + lane];
-            R xj = s.x, yj = s.y, zj = s.z, mj = s.w;
+            R xj = rel<MIXED, R>(s.x, o[0]), yj = rel<MIXED, R>(s.y, o[1]);
+            R zj = rel<MIXED, R>(s.z, o[2]);
+            R mj = (R) s.w;
             if (diag) {
               // One-sided; a lane meets its own body at step 0 of its own chunk.
               const bool own = (gi == gj) && (c / ILP == warp);
@@ -177,25 +217,33 @@ namespace GPU {
                 fz = rotate(fz, next);
               }
               // After 32 rotations every body of the chunk is back in its own lane.
-              R *r = reac + 3 * (32 * c + lane);
-              r[0] += fx;
-              r[1] += fy;
-              r[2] += fz;
+              Part *r = reac + 3 * (32 * c + lane);
+              r[0] += (Part) fx;
+              r[1] += (Part) fy;
+              r[2] += (Part) fz;
               __syncthreads();
             }
           }
 
+          // The sums go to this task's own partner slot J; Mixed adds each slice's fp32 sums
+          // into the fp64 slot, the others carry their sums on through the slot.
 #pragma unroll
           for (int q = 0; q < ILP; ++q) {
-            R *p = part + 3 * (J * npad + ib + 32 * q);
-            p[0] = ax[q];
-            p[1] = ay[q];
-            p[2] = az[q];
+            Part *p = part + 3 * (J * npad + ib + 32 * q);
+            if (MIXED && gj > 0) {
+              p[0] += (Part) ax[q];
+              p[1] += (Part) ay[q];
+              p[2] += (Part) az[q];
+            } else {
+              p[0] = (Part) ax[q];
+              p[1] = (Part) ay[q];
+              p[2] = (Part) az[q];
+            }
           }
         }
         if (!diag) {
           // The slice of J is complete: its sums over block I go to partner slot I.
-          R *p = part + 3 * (I * npad + jb);
+          Part *p = part + 3 * (I * npad + jb);
           for (int q = threadIdx.x; q < 3 * SLICE; q += PO_THREADS) p[q] = reac[q];
           __syncthreads();
         }
@@ -211,18 +259,31 @@ namespace GPU {
       src[b].w = 0;
     }
 
-    template <class R, int ILP>
+    template <int PREC, int ILP>
     void launch(const PairsOnceLayout &L, void *src, long n, const GravityArgs &a, void *scratch,
                 cudaStream_t st)
     {
-      using Src = typename PoTypes<R>::Src;
+      using T = PoTypes<PREC>;
       if (L.npad > n) {
         const unsigned grid = (unsigned) ((L.npad - n + 255) / 256);
-        fill_pads<<<grid, 256, 0, st>>>((Src *) src, n, L.npad);
+        fill_pads<<<grid, 256, 0, st>>>((typename T::Src *) src, n, L.npad);
       }
       const unsigned tasks = (unsigned) L.nb * (L.nb + 1) / 2;
-      pairs_once_kernel<R, ILP><<<tasks, PO_THREADS, 0, st>>>((const Src *) src, L.nb, L.group,
-                                                              L.npad, (R) a.eps2, (R *) scratch);
+      pairs_once_kernel<PREC, ILP>
+          <<<tasks, PO_THREADS, 0, st>>>((const typename T::Src *) src, L.nb, L.group, L.npad,
+                                         (typename T::R) a.eps2, (typename T::Part *) scratch);
+    }
+
+    template <int PREC>
+    void launch_ilp(const PairsOnceLayout &L, void *src, long n, const GravityArgs &a,
+                    void *scratch, cudaStream_t st)
+    {
+      if (L.ilp == 2)
+        launch<PREC, 2>(L, src, n, a, scratch, st);
+      else if (L.ilp == 4)
+        launch<PREC, 4>(L, src, n, a, scratch, st);
+      else
+        launch<PREC, 8>(L, src, n, a, scratch, st);
     }
 
     size_t part_bytes(Precision p)
@@ -232,26 +293,27 @@ namespace GPU {
 
   }    // namespace
 
-  bool pairs_once_supported(Precision p, const GravityArgs &a)
+  bool pairs_once_supported(Precision, const GravityArgs &a)
   {
-    return p != Precision::Mixed && !a.energy_virial && !(a.cutsq > 0.0) &&
+    return !a.energy_virial && !(a.cutsq > 0.0) &&
            !(a.periodic[0] || a.periodic[1] || a.periodic[2]);
   }
 
   bool pairs_once_pays(Precision p, long n)
   {
-    // doc/bench_gravity_gpu.md (H200, runs 21 and 22): from N = 16384 on, 1.15-1.45x faster than
-    // the one-sided kernels in single and double precision.
-    return p != Precision::Mixed && n >= 16384;
+    // doc/bench_gravity_gpu.md (H200, runs 21-23): from N = 16384 on, 1.1-1.45x faster than
+    // the one-sided kernels in every precision.
+    (void) p;
+    return n >= 16384;
   }
 
   PairsOnceLayout pairs_once_layout(Precision p, long n, int ilp)
   {
     PairsOnceLayout L;
-    // Measured fastest on an H200 (runs 21 and 22): more bodies per lane for large N, smaller
+    // Measured fastest on an H200 (runs 21-23): more bodies per lane for large N, smaller
     // slices (more tasks) for small N.
     if (ilp != 2 && ilp != 4 && ilp != 8)
-      ilp = (p == Precision::Single && n >= 65536) ? 8 : (n >= 16384) ? 4 : 2;
+      ilp = (p != Precision::Double && n >= 65536) ? 8 : (n >= 16384) ? 4 : 2;
     L.ilp = ilp;
     const long slice = (long) PO_THREADS * ilp;
     const long nsub = std::max(1L, (n + slice - 1) / slice);
@@ -264,35 +326,34 @@ namespace GPU {
     return L;
   }
 
+  size_t pairs_once_source_bytes(Precision p, const PairsOnceLayout &L)
+  {
+    return source_bytes(p) * (size_t) L.npad;
+  }
+
   size_t pairs_once_scratch_bytes(Precision p, const PairsOnceLayout &L)
   {
     return part_bytes(p) * 3 * (size_t) L.nb * L.npad;
   }
 
-  cudaError_t compute_gravity_pairs_once(Precision p, const PairsOnceLayout &L, void *src, long n,
-                                         const double *m, const GravityArgs &a, void *scratch,
-                                         double *f, cudaStream_t st)
+  cudaError_t compute_gravity_pairs_once(Precision p, const PairsOnceLayout &L, const double *x,
+                                         const double *m, long n, const int *order, const int *slot,
+                                         const GravityArgs &a, void *src, void *scratch, double *f,
+                                         cudaStream_t st)
   {
     if (n <= 0) return cudaSuccess;
     if (!pairs_once_supported(p, a)) return cudaErrorInvalidValue;
-    if (p == Precision::Single) {
-      if (L.ilp == 2)
-        launch<float, 2>(L, src, n, a, scratch, st);
-      else if (L.ilp == 4)
-        launch<float, 4>(L, src, n, a, scratch, st);
-      else
-        launch<float, 8>(L, src, n, a, scratch, st);
-    } else {
-      if (L.ilp == 2)
-        launch<double, 2>(L, src, n, a, scratch, st);
-      else if (L.ilp == 4)
-        launch<double, 4>(L, src, n, a, scratch, st);
-      else
-        launch<double, 8>(L, src, n, a, scratch, st);
-    }
-    const cudaError_t err = cudaGetLastError();
+    cudaError_t err = pack_sources(p, x, m, n, a, src, st, order);
     if (err != cudaSuccess) return err;
-    return sum_partials(p, scratch, L.nb, L.npad, n, nullptr, nullptr, m, a.G, false, f, nullptr,
+    if (p == Precision::Single)
+      launch_ilp<0>(L, src, n, a, scratch, st);
+    else if (p == Precision::Mixed)
+      launch_ilp<1>(L, src, n, a, scratch, st);
+    else
+      launch_ilp<2>(L, src, n, a, scratch, st);
+    err = cudaGetLastError();
+    if (err != cudaSuccess) return err;
+    return sum_partials(p, scratch, L.nb, L.npad, n, order, slot, m, a.G, false, f, nullptr,
                         nullptr, st);
   }
 
