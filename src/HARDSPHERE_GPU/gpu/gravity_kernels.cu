@@ -147,26 +147,6 @@ namespace GPU {
     // Grid: x = ceil(ntgt / (BLOCK*ILP)) target groups, y = splits.  Block: BLOCK threads.
     // Shared memory: BLOCK packed sources (16 or 32 B each).
     // Scratch output per (split, target): 3 (+1 +6) partial sums of type P.
-    template <int PREC> struct PrecTypes;
-    template <> struct PrecTypes<0> {    // Single
-      using R = float;
-      using Part = float;
-      using Src = float4;     // in global memory
-      using Tile = float4;    // in shared memory
-    };
-    template <> struct PrecTypes<1> {    // Mixed: fp32 pairs relative to the block origin
-      using R = float;
-      using Part = double;
-      using Src = Src64;
-      using Tile = float4;
-    };
-    template <> struct PrecTypes<2> {    // Double
-      using R = double;
-      using Part = double;
-      using Src = Src64;
-      using Tile = Src64;
-    };
-
     template <bool EV, class Part, class R>
     __device__ inline void add_into(TargetSums<Part> &dst, TargetSums<R> &src)
     {

@@ -56,24 +56,9 @@ namespace GPU {
     // exactly zero (r^2 overflows to infinity in fp32; in fp64 the zero mass does it).
     constexpr double PO_PAD_COORD = -1.0e30;
 
-    // Per precision: pair arithmetic R, partial sums Part, packed source Src; Mixed converts
-    // positions to R relative to the origin of the task's block I, in double.
-    template <int PREC> struct PoTypes;
-    template <> struct PoTypes<0> {    // Single
-      using R = float;
-      using Part = float;
-      using Src = float4;
-    };
-    template <> struct PoTypes<1> {    // Mixed
-      using R = float;
-      using Part = double;
-      using Src = Src64;
-    };
-    template <> struct PoTypes<2> {    // Double
-      using R = double;
-      using Part = double;
-      using Src = Src64;
-    };
+    // The precision's types (pair_math.cuh); Mixed converts positions to R relative to the
+    // origin of the task's block I, in double.
+    template <int PREC> using PoTypes = PrecTypes<PREC>;
 
     // Task t -> blocks (I, J): tasks 0 .. nb-1 are the blocks with themselves, then the pairs
     // I < J row by row.  At most nb - 1 loop trips.

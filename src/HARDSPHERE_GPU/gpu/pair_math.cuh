@@ -15,6 +15,28 @@ namespace GPU {
     double x, y, z, w;
   };
 
+  // Types per precision (Precision as int): pair arithmetic R, partial sums Part, packed
+  // source in global memory Src, source staged in shared memory Tile (one-sided kernels).
+  template <int PREC> struct PrecTypes;
+  template <> struct PrecTypes<0> {    // Single
+    using R = float;
+    using Part = float;
+    using Src = float4;     // in global memory
+    using Tile = float4;    // in shared memory
+  };
+  template <> struct PrecTypes<1> {    // Mixed: fp32 pairs relative to the block origin
+    using R = float;
+    using Part = double;
+    using Src = Src64;
+    using Tile = float4;
+  };
+  template <> struct PrecTypes<2> {    // Double
+    using R = double;
+    using Part = double;
+    using Src = Src64;
+    using Tile = Src64;
+  };
+
   __device__ inline float rint_p(float x)
   {
     return rintf(x);
