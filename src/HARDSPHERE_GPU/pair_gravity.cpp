@@ -216,9 +216,10 @@ void PairGravity::setup_gpu()
     static const char *names[] = {"single", "mixed", "double"};
     utils::logmesg(lmp, "Pair gravity: CUDA path, precision {}, rank 0 on device {} ({})\n",
                    names[precision], device, HSGPU::GPU::device_description(device));
-    if (force->newton_pair && comm->nprocs == 1)
-      utils::logmesg(lmp, "Pair gravity: newton on, one rank: each pair evaluated once on "
-                          "force-only steps of open boxes without cutoff, from 32768 atoms\n");
+    const bool open = !domain->xperiodic && !domain->yperiodic && !domain->zperiodic;
+    if (force->newton_pair && comm->nprocs == 1 && open && cutoff <= 0.0)
+      utils::logmesg(lmp, "Pair gravity: newton on, one rank, open box, no cutoff: each pair "
+                          "evaluated once on force-only steps with 16384 or more atoms\n");
   }
 }
 

@@ -286,8 +286,8 @@ namespace GPU {
 
   bool pairs_once_pays(Precision p, long n)
   {
-    // doc/bench_gravity_gpu.md (H200, runs 21-23): from N = 16384 on, 1.1-1.45x faster than
-    // the one-sided kernels in every precision.
+    // doc/bench_gravity_gpu.md (H200, runs 21-25): from N = 16384 on, 1.1-1.45x faster than
+    // the one-sided kernels in every precision.  pair_gravity.cpp's setup message names it.
     (void) p;
     return n >= 16384;
   }
@@ -295,7 +295,7 @@ namespace GPU {
   PairsOnceLayout pairs_once_layout(Precision p, long n, int ilp)
   {
     PairsOnceLayout L;
-    // Measured fastest on an H200 (runs 21-23): more bodies per lane for large N, smaller
+    // Measured fastest on an H200 (runs 21-25): more bodies per lane for large N, smaller
     // slices (more tasks) for small N.
     if (ilp != 2 && ilp != 4 && ilp != 8)
       ilp = (p != Precision::Double && n >= 65536) ? 8 : (n >= 16384) ? 4 : 2;
