@@ -218,8 +218,10 @@ void PairGravity::setup_gpu()
                    names[precision], device, HSGPU::GPU::device_description(device));
     const bool open = !domain->xperiodic && !domain->yperiodic && !domain->zperiodic;
     if (force->newton_pair && comm->nprocs == 1 && open && cutoff <= 0.0)
-      utils::logmesg(lmp, "Pair gravity: newton on, one rank, open box, no cutoff: each pair "
-                          "evaluated once on force-only steps with 16384 or more atoms\n");
+      utils::logmesg(lmp,
+                     "Pair gravity: newton on, one rank, open box, no cutoff: each pair "
+                     "evaluated once on force-only steps with {} or more atoms\n",
+                     HSGPU::GPU::PAIRS_ONCE_MIN_N);
   }
 }
 

@@ -194,29 +194,30 @@ namespace GPU {
     impl->last_once = a.pairs_once > 0 && pairs_once_supported(p, a) && impl->targets_identity &&
                       nt == n && (a.pairs_once > 1 || pairs_once_pays(p, n));
     if (impl->last_once) {
-      compute_pairs_once(p, a, f, shape.splits > 0 ? shape.ilp : 0);
-      return;
+      launch_pairs_once(p, a, shape.splits > 0 ? shape.ilp : 0);
+    } else {
+      if (shape.splits <= 0) shape = choose_shape(p, a, nt, n, impl->num_sms);
+      impl->src.reserve(source_bytes(p) * n + 1, "cudaMalloc(sources)");
+      impl->scratch.reserve(scratch_bytes(p, shape, nt, a.energy_virial) + 1,
+                            "cudaMalloc(scratch)");
+      impl->f.reserve(3 * nt * sizeof(double) + 1, "cudaMalloc(forces)");
+      if (a.energy_virial) {
+        impl->e.reserve(nt * sizeof(double) + 1, "cudaMalloc(energies)");
+        impl->v.reserve(6 * nt * sizeof(double) + 1, "cudaMalloc(virials)");
+      }
+      check(pack_sources(p, (const double *) impl->x.ptr, (const double *) impl->m.ptr, n, a,
+                         impl->src.ptr, impl->stream),
+            "pack_sources kernel");
+      check(cudaEventRecord(impl->start, impl->stream), "cudaEventRecord");
+      const int *targets = (const int *) impl->tidx.ptr;
+      const int *slot = nullptr;
+      if (p == Precision::Mixed && nt > 0) impl->order_targets(a, targets, slot);
+      check(compute_gravity(p, shape, impl->src.ptr, n, targets, slot, nt,
+                            (const double *) impl->m.ptr, impl->max_mass, a, impl->scratch.ptr,
+                            (double *) impl->f.ptr, (double *) impl->e.ptr, (double *) impl->v.ptr,
+                            impl->stream),
+            "gravity kernel");
     }
-    if (shape.splits <= 0) shape = choose_shape(p, a, nt, n, impl->num_sms);
-    impl->src.reserve(source_bytes(p) * n + 1, "cudaMalloc(sources)");
-    impl->scratch.reserve(scratch_bytes(p, shape, nt, a.energy_virial) + 1, "cudaMalloc(scratch)");
-    impl->f.reserve(3 * nt * sizeof(double) + 1, "cudaMalloc(forces)");
-    if (a.energy_virial) {
-      impl->e.reserve(nt * sizeof(double) + 1, "cudaMalloc(energies)");
-      impl->v.reserve(6 * nt * sizeof(double) + 1, "cudaMalloc(virials)");
-    }
-    check(pack_sources(p, (const double *) impl->x.ptr, (const double *) impl->m.ptr, n, a,
-                       impl->src.ptr, impl->stream),
-          "pack_sources kernel");
-    check(cudaEventRecord(impl->start, impl->stream), "cudaEventRecord");
-    const int *targets = (const int *) impl->tidx.ptr;
-    const int *slot = nullptr;
-    if (p == Precision::Mixed && nt > 0) impl->order_targets(a, targets, slot);
-    check(compute_gravity(p, shape, impl->src.ptr, n, targets, slot, nt,
-                          (const double *) impl->m.ptr, impl->max_mass, a, impl->scratch.ptr,
-                          (double *) impl->f.ptr, (double *) impl->e.ptr, (double *) impl->v.ptr,
-                          impl->stream),
-          "gravity kernel");
     check(cudaEventRecord(impl->stop, impl->stream), "cudaEventRecord");
     check(cudaMemcpyAsync(f, impl->f.ptr, 3 * nt * sizeof(double), cudaMemcpyDeviceToHost,
                           impl->stream),
@@ -233,7 +234,9 @@ namespace GPU {
     check(cudaEventElapsedTime(&impl->kernel_ms, impl->start, impl->stop), "cudaEventElapsedTime");
   }
 
-  void GravityEngine::compute_pairs_once(Precision p, const GravityArgs &a, double *f, int ilp)
+  // Reserves, records the start event and launches the pairs-once kernels for all sources;
+  // compute() then fetches the forces as for the one-sided kernels.
+  void GravityEngine::launch_pairs_once(Precision p, const GravityArgs &a, int ilp)
   {
     const long n = impl->nsrc;
     const PairsOnceLayout L = pairs_once_layout(p, n, ilp);
@@ -248,12 +251,6 @@ namespace GPU {
                                      (const double *) impl->m.ptr, n, order, slot, a, impl->src.ptr,
                                      impl->scratch.ptr, (double *) impl->f.ptr, impl->stream),
           "gravity kernel (pairs once)");
-    check(cudaEventRecord(impl->stop, impl->stream), "cudaEventRecord");
-    check(cudaMemcpyAsync(f, impl->f.ptr, 3 * n * sizeof(double), cudaMemcpyDeviceToHost,
-                          impl->stream),
-          "cudaMemcpy(forces)");
-    check(cudaStreamSynchronize(impl->stream), "gravity kernel (synchronize)");
-    check(cudaEventElapsedTime(&impl->kernel_ms, impl->start, impl->stop), "cudaEventElapsedTime");
   }
 
 }    // namespace GPU

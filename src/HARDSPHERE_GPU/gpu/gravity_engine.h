@@ -54,7 +54,7 @@ namespace GPU {
    private:
     struct Impl;
     Impl *impl;
-    void compute_pairs_once(Precision p, const GravityArgs &a, double *f, int ilp);
+    void launch_pairs_once(Precision p, const GravityArgs &a, int ilp);
   };
 
 }    // namespace GPU

@@ -284,12 +284,9 @@ namespace GPU {
            !(a.periodic[0] || a.periodic[1] || a.periodic[2]);
   }
 
-  bool pairs_once_pays(Precision p, long n)
+  bool pairs_once_pays(Precision, long n)
   {
-    // doc/bench_gravity_gpu.md (H200, runs 21-25): from N = 16384 on, 1.1-1.45x faster than
-    // the one-sided kernels in every precision.  pair_gravity.cpp's setup message names it.
-    (void) p;
-    return n >= 16384;
+    return n >= PAIRS_ONCE_MIN_N;
   }
 
   PairsOnceLayout pairs_once_layout(Precision p, long n, int ilp)
