@@ -189,6 +189,17 @@ bool same_state(const World &a, const World &b, int &first_diff)
   return true;
 }
 
+// 200 spheres without gravity or walls, periodic in z, restitution e.
+World periodic_gas(unsigned seed, double e)
+{
+  World w = random_world(200, seed, 2.0);
+  w.g = 0.0;
+  w.walls = false;
+  w.periodic[2] = 1;
+  w.e = e;
+  return w;
+}
+
 }    // namespace
 
 TEST(EventOrder, SerialAndComponentsAgreeBitwiseWithoutOverlaps)
@@ -241,11 +252,7 @@ TEST(EventOrder, ResultDoesNotDependOnMemoryOrder)
 
 TEST(EventOrder, ElasticPeriodicGasConservesMomentumAndEnergy)
 {
-  World w = random_world(200, 21, 2.0);
-  w.g = 0.0;
-  w.walls = false;
-  w.periodic[2] = 1;
-  w.e = 1.0;
+  World w = periodic_gas(21, 1.0);
   double p0[3] = {0, 0, 0}, pscale = 0;
   for (auto &s : w.s)
     for (int d = 0; d < 3; ++d) {
@@ -266,11 +273,7 @@ TEST(EventOrder, ElasticPeriodicGasConservesMomentumAndEnergy)
 
 TEST(EventOrder, InelasticGasLosesExactlyTheTalliedEnergy)
 {
-  World w = random_world(200, 23, 2.0);
-  w.g = 0.0;
-  w.walls = false;
-  w.periodic[2] = 1;
-  w.e = 0.6;
+  World w = periodic_gas(23, 0.6);
   double lost = 0;
   const double k0 = kinetic(w);
   for (int it = 0; it < 100; ++it) lost += step(w, 0.02, false).tally.ke_lost;

@@ -60,6 +60,18 @@ std::vector<std::string> sphere_lines(const Spheres &s)
   return l;
 }
 
+// Masses 1 and 3, diameter 1, at x = -1 and 1 moving towards each other at speeds 1:
+// contact at t = 0.5.
+Spheres head_on_pair()
+{
+  Spheres s;
+  s.x = {{-1, 0, 0}, {1, 0, 0}};
+  s.v = {{1, 0, 0}, {-1, 0, 0}};
+  s.dia = {1, 1};
+  s.m = {1, 3};
+  return s;
+}
+
 double max_abs_diff(const std::vector<double> &a, const std::vector<double> &b)
 {
   double w = 0.0;
@@ -74,13 +86,8 @@ double max_abs_diff(const std::vector<double> &a, const std::vector<double> &b)
 TEST(FixHardSphere, HeadOnMatchesAnalyticForAnyTimestep)
 {
   for (double dt : {0.01, 0.03, 0.1}) {
-    Spheres s;
-    s.x = {{-1, 0, 0}, {1, 0, 0}};
-    s.v = {{1, 0, 0}, {-1, 0, 0}};
-    s.dia = {1, 1};
-    s.m = {1, 3};
     Lammps lmp;
-    lmp.commands(sphere_lines(s));
+    lmp.commands(sphere_lines(head_on_pair()));
     lmp.commands({"fix 1 all nve/sphere", "fix hs all hardsphere restitution 0.8",
                   fmt("timestep %.17g", dt), fmt("run %.0f", std::round(3.0 / dt))});
     const auto x = lmp.gather("x", 3), v = lmp.gather("v", 3);
@@ -224,13 +231,8 @@ TEST(FixHardSphere, NewtonsCradle)
 // The collision's virial r . dp / dt enters compute pressure at the step of the collision.
 TEST(FixHardSphere, CollisionVirialEntersThePressure)
 {
-  Spheres s;
-  s.x = {{-1, 0, 0}, {1, 0, 0}};
-  s.v = {{1, 0, 0}, {-1, 0, 0}};
-  s.dia = {1, 1};
-  s.m = {1, 3};
   Lammps lmp;
-  lmp.commands(sphere_lines(s));
+  lmp.commands(sphere_lines(head_on_pair()));
   lmp.commands({"fix 1 all nve/sphere", "fix hs all hardsphere restitution 0.8",
                 "compute pv all pressure NULL virial", "thermo_style custom step press c_pv",
                 "timestep 0.1", "run 5"});
