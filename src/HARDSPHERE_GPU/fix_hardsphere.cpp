@@ -3,6 +3,15 @@
 
    This file: the command's arguments, the checks, per-atom state and its migration and
    restart, forward communication, output.  fix_hardsphere_step.cpp: the step itself.
+
+   Output vector (f_ID[1] ... f_ID[NVECTOR]); new entries are appended, never renumbered:
+     1 collisions last step (ext)        8 groups of 2+ atoms, last step (ext)
+     2 collisions in total (ext)         9 time windows of the last step
+     3 wall collisions in total (ext)   10 steps redone in total
+     4 kinetic energy lost (ext)        11 atoms in groups spanning ranks, last step (ext)
+     5 most events in one step          12 seconds in the candidate search, in total
+     6 events in total (ext)            13 seconds resolving, in total
+     7 largest group, last step         14 overlaps pushed apart, in total (ext)
 ------------------------------------------------------------------------------------- */
 
 #include "fix_hardsphere.h"
@@ -19,6 +28,7 @@
 #include "utils.h"
 
 #include "lmp_compat.h"
+#include "fix_hardsphere_exchange.h"
 
 #include <cmath>
 #include <cstring>
@@ -30,7 +40,8 @@ namespace {
 
 constexpr double NEVER_COLLIDED = -1.0e30;    // tlast of an atom that never collided
 const char *const FACES[HSGPU::Collide::NFACES] = {"xlo", "xhi", "ylo", "yhi", "zlo", "zhi"};
-constexpr int NVECTOR = 6;
+constexpr int NVECTOR = 14;
+constexpr int RESTART_FORMAT = 2;    // global restart data: -format, count, values
 
 double restitution_arg(const char *arg, LAMMPS *lmp)
 {
@@ -43,17 +54,19 @@ double restitution_arg(const char *arg, LAMMPS *lmp)
 }    // namespace
 
 FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
-    Fix(lmp, narg, arg), serial_order(0), tc_user(-1.0), vmin(0.0), maxevents_user(-1),
-    maxevents_warn(0), overlap_push(0), reach_user(-1.0), rmax(0.0), reach(0.0), list_cut(0.0),
-    maxevents(0), list(nullptr), tlast(nullptr), n_step(0.0), n_total(0.0), n_wall(0.0),
-    ke_total(0.0), max_events(0.0), events_total(0.0), n_redo(0.0), n_push(0.0)
+    Fix(lmp, narg, arg), serial_order(0), nwindows_user(0), tc_user(-1.0), vmin(0.0),
+    maxevents_user(-1), maxevents_warn(0), overlap_push(0), reach_user(-1.0), rmax(0.0),
+    reach(0.0), list_cut(0.0), maxevents(0), tlast(nullptr), n_step(0.0), n_total(0.0),
+    n_wall(0.0), ke_total(0.0), max_events(0.0), events_total(0.0), n_redo(0.0),
+    last_largest(0.0), last_groups(0.0), last_windows(0.0), last_boundary(0.0), t_search(0.0),
+    t_resolve(0.0), exchange(nullptr), fwd_nval(0), n_push(0.0)
 {
   for (double &o : ovl) o = 0.0;
   vector_flag = 1;
   size_vector = NVECTOR;
   global_freq = 1;
   extvector = -1;
-  extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1};
+  extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1, 0, 1, 0, 0, 1, 0, 0, 1};
   virial_global_flag = 1;
   thermo_virial = 1;
   restart_global = 1;
@@ -67,6 +80,8 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
   if (!atom->tag_enable) error->all(FLERR, "Fix hardsphere requires atom IDs");
 
   parse(narg, arg);
+  backend = HSGPU::Collide::make_cpu_backend();
+  exchange = new LammpsExchange(this);
 
   grow_arrays(atom->nmax);
   atom->add_callback(Atom::GROW);
@@ -80,6 +95,7 @@ FixHardSphere::~FixHardSphere()
   atom->delete_callback(id, Atom::GROW);
   atom->delete_callback(id, Atom::RESTART);
   memory->destroy(tlast);
+  delete exchange;
   delete[] extlist;
 }
 
@@ -139,6 +155,17 @@ void FixHardSphere::parse(int narg, char **arg)
       else
         error->all(FLERR, "Fix hardsphere: order must be parallel or serial, got {}",
                    arg[iarg + 1]);
+      iarg += 2;
+    } else if (strcmp(kw, "windows") == 0) {
+      need(1, kw);
+      if (strcmp(arg[iarg + 1], "auto") == 0) {
+        nwindows_user = 0;
+      } else {
+        nwindows_user = utils::inumeric(FLERR, arg[iarg + 1], false, lmp);
+        if (nwindows_user < 1)
+          error->all(FLERR, "Fix hardsphere: windows must be auto or a number >= 1, got {}",
+                     arg[iarg + 1]);
+      }
       iarg += 2;
     } else if (strcmp(kw, "tc") == 0) {
       need(1, kw);
@@ -251,27 +278,24 @@ void FixHardSphere::init()
                  "collision range 2*max radius + 2*reach = {}",
                  domain->prd[d], "xyz"[d], list_cut);
 
-  // Ghost atoms must reach as far as the neighbor list.  Neighbor's own cutoff comes from
-  // the pair style; a fix's custom list does not raise it.
+  // Ghost atoms must reach as far as the candidate search: 2 rmax + 2 reach, plus the skin
+  // that atoms may move between reneighborings.  Raised here (once, with a line in the log)
+  // when the communication cutoff is shorter; a larger user setting is kept.
   double ghost = comm->cutghostuser;
   if (force->pair && force->pair->cutforce > 0.0)
     ghost = std::max(ghost, force->pair->cutforce + neighbor->skin);
   const double need = list_cut + neighbor->skin;
-  if (ghost < need)
-    error->all(FLERR,
-               "Fix hardsphere needs ghost atoms out to {:.8g} (2*max radius {:.8g} + 2*reach "
-               "{:.8g} + neighbor skin {:.8g}) but the communication cutoff is {:.8g}: use "
-               "'comm_modify cutoff {:.8g}' (or more)",
-               need, 2.0 * rmax, 2.0 * reach, neighbor->skin, ghost, need);
+  if (ghost < need) {
+    comm->cutghostuser = need;
+    if (comm->me == 0)
+      utils::logmesg(lmp,
+                     "Fix hardsphere: communication cutoff raised to {:.8g} (2*max radius {:.8g} "
+                     "+ 2*reach {:.8g} + neighbor skin {:.8g})\n",
+                     need, 2.0 * rmax, 2.0 * reach, neighbor->skin);
+  }
 
   maxevents = maxevents_user > 0 ? maxevents_user : 1000 + 100 * atom->natoms;
-
-  HsgpuCompat::request_full_list(neighbor, this, instance_me, list_cut);
-}
-
-void FixHardSphere::init_list(int, NeighList *ptr)
-{
-  list = ptr;
+  wsettings.nwindows = nwindows_user;
 }
 
 double FixHardSphere::compute_vector(int n)
@@ -289,6 +313,22 @@ double FixHardSphere::compute_vector(int n)
     return max_events;
   case 5:
     return events_total;
+  case 6:
+    return last_largest;
+  case 7:
+    return last_groups;
+  case 8:
+    return last_windows;
+  case 9:
+    return n_redo;
+  case 10:
+    return last_boundary;
+  case 11:
+    return t_search;
+  case 12:
+    return t_resolve;
+  case 13:
+    return n_push;
   default:
     return 0.0;
   }
@@ -296,26 +336,38 @@ double FixHardSphere::compute_vector(int n)
 
 /* --- restart ---------------------------------------------------------------------------- */
 
+/* Global restart data: -RESTART_FORMAT, the count of values, the values (totals only; the
+   last step's figures and the timers start again).  Files written before the format marker
+   hold 7 values: n_total n_wall ke_total max_events events_total n_redo n_step. */
 void FixHardSphere::write_restart(FILE *fp)
 {
-  const double state[7] = {n_total, n_wall, ke_total, max_events, events_total, n_redo, n_step};
+  const double state[] = {-(double) RESTART_FORMAT, 8.0,          n_total, n_wall, ke_total,
+                          max_events,               events_total, n_redo,  n_step, n_push};
+  const int count = (int) (sizeof(state) / sizeof(double));
   if (comm->me == 0) {
     const int size = (int) sizeof(state);
     fwrite(&size, sizeof(int), 1, fp);
-    fwrite(state, sizeof(double), 7, fp);
+    fwrite(state, sizeof(double), count, fp);
   }
 }
 
 void FixHardSphere::restart(char *buf)
 {
   const auto *state = (const double *) buf;
-  n_total = state[0];
-  n_wall = state[1];
-  ke_total = state[2];
-  max_events = state[3];
-  events_total = state[4];
-  n_redo = state[5];
-  n_step = state[6];
+  const double *v = state;
+  int count = 7;
+  if (state[0] < 0.0) {
+    count = (int) state[1];
+    v = state + 2;
+  }
+  n_total = v[0];
+  n_wall = v[1];
+  ke_total = v[2];
+  max_events = v[3];
+  events_total = v[4];
+  n_redo = v[5];
+  n_step = v[6];
+  if (count > 7) n_push = v[7];
 }
 
 /* --- per-atom state: time of the last collision ----------------------------------------- */
@@ -378,20 +430,24 @@ int FixHardSphere::maxsize_restart()
 
 int FixHardSphere::pack_forward_comm(int n, int *list_, double *buf, int, int *)
 {
+  const int nv = fwd_nval > 0 ? fwd_nval : NFWD;
+  const std::vector<double> &src = fwd_nval > 0 ? xfwd : gdata;
   int m = 0;
   for (int k = 0; k < n; ++k) {
-    const double *g = &gdata[(size_t) NFWD * list_[k]];
-    for (int q = 0; q < NFWD; ++q) buf[m++] = g[q];
+    const double *g = &src[(size_t) nv * list_[k]];
+    for (int q = 0; q < nv; ++q) buf[m++] = g[q];
   }
   return m;
 }
 
 void FixHardSphere::unpack_forward_comm(int n, int first, double *buf)
 {
+  const int nv = fwd_nval > 0 ? fwd_nval : NFWD;
+  std::vector<double> &dst = fwd_nval > 0 ? xfwd : gdata;
   int m = 0;
   for (int i = first; i < first + n; ++i) {
-    double *g = &gdata[(size_t) NFWD * i];
-    for (int q = 0; q < NFWD; ++q) g[q] = buf[m++];
+    double *g = &dst[(size_t) nv * i];
+    for (int q = 0; q < nv; ++q) g[q] = buf[m++];
   }
 }
 

@@ -6,10 +6,10 @@
    After the integrator's first half kick and drift (post_integrate) the fix finds the
    collisions of the step on the atoms' paths, carries them out in time order (rolling each
    pair back to its contact time, applying the impulse, moving it on) and hands the integrator
-   positions and half-step velocities free of overlaps.  The physics lives in core/; this class
-   gathers the atoms, sorts the work into components that each rank can resolve alone and
-   boundary components that all ranks resolve identically, and does LAMMPS's bookkeeping.
-   See doc/fix_hardsphere.md.
+   positions and half-step velocities free of overlaps.  The physics lives in core/, the step
+   driver (time windows, groups, redo) and its backends in engine/; this class is the LAMMPS
+   adapter: it gathers the atoms, finds the candidate pairs, talks to the other ranks for the
+   driver and does LAMMPS's bookkeeping.  See doc/fix_hardsphere.md.
 ------------------------------------------------------------------------------------- */
 #ifndef LMP_HSGPU_FIX_HARDSPHERE_H
 #define LMP_HSGPU_FIX_HARDSPHERE_H
@@ -18,7 +18,11 @@
 
 #include "core/event_order.h"
 #include "core/trajectory.h"
+#include "engine/cell_search.h"
+#include "engine/collision_backend.h"
+#include "engine/window_driver.h"
 
+#include <memory>
 #include <vector>
 
 namespace LAMMPS_NS {
@@ -29,7 +33,6 @@ class FixHardSphere : public Fix {
   ~FixHardSphere() override;
   int setmask() override;
   void init() override;
-  void init_list(int, class NeighList *) override;
   void setup(int) override;
   void post_integrate() override;
   double compute_vector(int) override;
@@ -53,7 +56,8 @@ class FixHardSphere : public Fix {
   // --- settings -------------------------------------------------------------------------
   std::vector<double> epair;    // restitution of type pairs, (ntypes + 1)^2
   HSGPU::Collide::Walls walls;
-  int serial_order;         // 1: the seed paper's global loop, 0: components
+  int serial_order;         // 1: the seed paper's global loop, 0: time windows and groups
+  int nwindows_user;        // windows per step, 0: adaptive
   double tc_user;           // TC-model time, < 0: auto (dt / 2)
   double vmin;              // elastic threshold on |v_n|
   bigint maxevents_user;    // cap on events per step, < 0: auto
@@ -64,9 +68,8 @@ class FixHardSphere : public Fix {
   // --- derived in init() ----------------------------------------------------------------
   double rmax;        // largest radius in the group
   double reach;       // displacement budget per step the neighbor list covers
-  double list_cut;    // neighbor list cutoff (without skin): 2 rmax + 2 reach
+  double list_cut;    // candidate range (without skin): 2 rmax + 2 reach
   bigint maxevents;
-  class NeighList *list;
 
   // --- per-atom state ---------------------------------------------------------------------
   double *tlast;    // time of the atom's last collision relative to the end of the last step
@@ -78,7 +81,13 @@ class FixHardSphere : public Fix {
   double ke_total;        // kinetic energy removed in total (energy units)
   double max_events;      // most events any step needed
   double events_total;    // events in total
-  double n_redo;          // steps redone with a larger displacement budget
+  double n_redo;          // steps redone (larger displacement budget, or a window's check)
+  double last_largest;    // most atoms resolved together in one window, last step
+  double last_groups;     // groups of two or more atoms resolved, last step (all windows)
+  double last_windows;    // time windows of the last step
+  double last_boundary;   // atoms in groups that spanned ranks, last step (all windows)
+  double t_search;        // seconds spent in the candidate search, in total
+  double t_resolve;       // seconds spent resolving, in total
 
   // --- per-step work ----------------------------------------------------------------------
   // Forwarded per atom: owner's x (3), v (3), radius, owner rank, owner's local index.
@@ -91,8 +100,21 @@ class FixHardSphere : public Fix {
   std::vector<tagint> foreign_tag;    // foreign node -> atom ID
   struct ForeignEdge {
     int body, node, ghost;    // owned body, foreign node, a ghost index of it
+    double shift[3];          // image shift of x_body - x_node
   };
   std::vector<ForeignEdge> fedges;
+  std::vector<int> foreign_ghost;    // foreign node -> one ghost index of it
+  std::vector<HSGPU::Collide::ForeignEdge> efedges;
+  std::vector<HSGPU::Collide::ForeignNode> fnodes;
+  std::vector<double> spos, srad;    // the candidate search's points
+  std::vector<int> sidx, spairs;
+  HSGPU::Collide::CellSearch search;
+  HSGPU::Collide::WindowDriver driver;
+  HSGPU::Collide::WindowSettings wsettings;
+  std::unique_ptr<HSGPU::Collide::CollisionBackend> backend;
+  class LammpsExchange *exchange;
+  int fwd_nval;                  // forward communication: 0 the state (NFWD), else xfwd's nval
+  std::vector<double> xfwd;      // per-atom values for the driver's to_foreign
   std::vector<char> in_boundary;    // body is in a component that touches a foreign node
   std::vector<HSGPU::Collide::Body> lbodies, gbodies;
   std::vector<HSGPU::Collide::Edge> ledges, gedges;
@@ -115,7 +137,12 @@ class FixHardSphere : public Fix {
   void classify();
   void gather_boundary();
   void resolve(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all, double &worst);
+  void sum_tallies(const HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
+  void step_serial(double D, HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
+  void step_windows(double D, HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   void apply_results(double dt);
+
+  friend class LammpsExchange;
 };
 
 }    // namespace LAMMPS_NS

@@ -3,14 +3,16 @@
 
    post_integrate():
      1. displacement budget D for the step (2 x the fastest drift, plus the bow), checked
-        against the reach the neighbor list covers;
+        against the reach the ghost atoms cover;
      2. forward communication of the owners' positions and velocities to the ghosts;
-     3. bodies for the owned atoms (start points X0 = x - vh dt), edges for the pairs whose
-        start points are within contact + 2 D (nearest image), overlap check (error or push);
-     4. components of the edge graph: those made of owned atoms only are resolved here, those
-        that reach a ghost owned by another rank ("boundary components") are gathered from
-        all ranks (MPI_Allgatherv of their atoms' states and edges) and resolved identically
-        on every rank, in atom-ID order;
+     3. bodies for the owned atoms (start points X0 = x - vh dt), candidate pairs whose start
+        points are within contact + 2 D (the fix's own cell search over owned and ghost atoms,
+        nearest image), overlap check (error or push);
+     4. the step driver (engine/window_driver.h) resolves the step in time windows, each
+        split into groups that cannot influence each other; groups that reach a ghost owned
+        by another rank are gathered from all ranks and resolved identically on every rank.
+        With 'order serial': the seed paper's global loop over all of this rank's bodies
+        (several ranks: over all bodies, gathered);
      5. check that nobody moved further than D (else redo with a larger D);
      6. positions and half-step velocities back to the atoms, counters, virial.
 ------------------------------------------------------------------------------------- */
@@ -22,11 +24,12 @@
 #include "domain.h"
 #include "error.h"
 #include "force.h"
-#include "neigh_list.h"
+#include "group.h"
 #include "update.h"
 
 #include "core/collision_step.h"
 #include "lmp_compat.h"
+#include "fix_hardsphere_exchange.h"
 #include "mpi_allgather.h"
 
 #include <algorithm>
@@ -121,8 +124,8 @@ double FixHardSphere::step_budget(double &vmax)
   if (least > reach)
     error->all(FLERR,
                "Fix hardsphere: atoms move up to {:.6g} per step (speed {:.6g}, timestep {:.6g}), "
-               "more than the reach {:.6g} its neighbor list covers: reduce the timestep, or raise "
-               "the fix's 'reach' keyword (and 'comm_modify cutoff' to match)",
+               "more than the reach {:.6g} its ghost atoms cover: reduce the timestep, or raise "
+               "the fix's 'reach' keyword",
                least, vmax, dt, reach);
   return std::min(2.0 * least + 1e-12 * rmax, reach);
 }
@@ -134,6 +137,7 @@ int FixHardSphere::build(double D, double drift_dt, bool collect_pushes)
   const int nlocal = atom->nlocal, nall = nlocal + atom->nghost;
   const int me = comm->me;
   double **x = atom->x, **v = atom->v, **f = atom->f;
+  const double t_start = MPI_Wtime();
   const int *mask = atom->mask, *type = atom->type;
   const tagint *tag = atom->tag;
   const double *radius = atom->radius, *rmass = atom->rmass;
@@ -172,60 +176,95 @@ int FixHardSphere::build(double D, double drift_dt, bool collect_pushes)
       if ((mask[j] & groupbit) && (int) gdata[(size_t) NFWD * j + 7] != me)
         ft.emplace_back(tag[j], j);
     std::sort(ft.begin(), ft.end());
+    foreign_ghost.clear();
+    fnodes.clear();
     for (size_t k = 0; k < ft.size(); ++k) {
-      if (k == 0 || ft[k].first != ft[k - 1].first) foreign_tag.push_back(ft[k].first);
+      if (k == 0 || ft[k].first != ft[k - 1].first) {
+        foreign_tag.push_back(ft[k].first);
+        foreign_ghost.push_back(ft[k].second);
+        fnodes.push_back({(long) ft[k].first, gdata[(size_t) NFWD * ft[k].second + 6]});
+      }
       foreign_of[ft[k].second - nlocal] = (int) foreign_tag.size() - 1;
     }
   }
 
-  // Edges from the full neighbor list.
+  // Candidate pairs from the cell search over owned and ghost atoms of the group, at their
+  // start points; ghosts at their owners' start points moved to the ghost's periodic image
+  // (the stale ghost coordinates only tell which image).
+  spos.clear();
+  srad.clear();
+  sidx.clear();
+  for (const Body &b : bodies) {
+    for (int d = 0; d < 3; ++d) spos.push_back(b.X0[d]);
+    srad.push_back(b.radius);
+    sidx.push_back(b.owner);
+  }
+  const int nsearch = (int) bodies.size();
+  for (int j = nlocal; j < nall; ++j) {
+    if (!(mask[j] & groupbit)) continue;
+    const double *g = &gdata[(size_t) NFWD * j];
+    for (int d = 0; d < 3; ++d) {
+      double p = g[d] - g[3 + d] * drift_dt;
+      if (periodic[d]) p += std::nearbyint((x[j][d] - p) / prd[d]) * prd[d];
+      spos.push_back(p);
+    }
+    srad.push_back(g[6]);
+    sidx.push_back(j);
+  }
+  spairs.clear();
+  const double extra = 2.0 * D * (1.0 + 1e-9) + 1e-9 * rmax;
+  search.find(spos.data(), srad.data(), (int) sidx.size(), nsearch, rmax, extra, spairs);
+
   edges.clear();
   fedges.clear();
-  const int inum = list->inum;
-  const int *ilist = list->ilist, *numneigh = list->numneigh;
-  int **firstneigh = list->firstneigh;
-  for (int ii = 0; ii < inum; ++ii) {
-    const int i = ilist[ii];
-    if (!(mask[i] & groupbit)) continue;
-    const Body &bi = bodies[body_of[i]];
-    const int *jlist = firstneigh[i];
-    for (int jj = 0; jj < numneigh[i]; ++jj) {
-      const int j = jlist[jj] & NEIGHMASK;
-      if (!(mask[j] & groupbit) || tag[j] == tag[i]) continue;
-      int bj = -1, node = -1;
-      double X0j[3], rj;
-      if (j < nlocal) {
-        bj = body_of[j];
-      } else {
-        const double *g = &gdata[(size_t) NFWD * j];
-        if ((int) g[7] == me)
-          bj = body_of[(int) g[8]];
-        else
-          node = foreign_of[j - nlocal];
+  for (size_t k = 0; k < spairs.size(); k += 2) {
+    const int i = sidx[spairs[k]], j = sidx[spairs[k + 1]];
+    if (tag[j] == tag[i]) continue;    // an atom and its own image
+    const int bi = body_of[i];
+    int bj = -1, node = -1;
+    double X0j[3], rj;
+    if (j < nlocal) {
+      bj = body_of[j];
+    } else {
+      const double *g = &gdata[(size_t) NFWD * j];
+      if ((int) g[7] == me)
+        bj = body_of[(int) g[8]];
+      else
+        node = foreign_of[j - nlocal];
+      if (bj < 0 && node < 0) continue;
+    }
+    if (bj >= 0) {
+      if (bj == bi) continue;
+      for (int d = 0; d < 3; ++d) X0j[d] = bodies[bj].X0[d];
+      rj = bodies[bj].radius;
+    } else {
+      const double *g = &gdata[(size_t) NFWD * j];
+      for (int d = 0; d < 3; ++d) X0j[d] = g[d] - g[3 + d] * drift_dt;
+      rj = g[6];
+    }
+    double r[3], sh[3];
+    HSGPU::Collide::nearest_image_separation(bodies[bi].X0, X0j, prd, periodic, r, sh);
+    const double range = bodies[bi].radius + rj + 2.0 * D;
+    if (r[0] * r[0] + r[1] * r[1] + r[2] * r[2] > range * range) continue;
+    if (bj >= 0) {
+      // Lower ID first, its separation computed in that orientation.
+      Edge e;
+      e.i = bi;
+      e.j = bj;
+      if (bodies[bj].id < bodies[bi].id) {
+        std::swap(e.i, e.j);
+        HSGPU::Collide::nearest_image_separation(bodies[e.i].X0, bodies[e.j].X0, prd, periodic,
+                                                 r, sh);
       }
-      if (bj >= 0) {
-        if (tag[i] > tag[j]) continue;    // each local pair once, from its lower ID
-        for (int d = 0; d < 3; ++d) X0j[d] = bodies[bj].X0[d];
-        rj = bodies[bj].radius;
-      } else {
-        if (node < 0) continue;
-        const double *g = &gdata[(size_t) NFWD * j];
-        for (int d = 0; d < 3; ++d) X0j[d] = g[d] - g[3 + d] * drift_dt;
-        rj = g[6];
-      }
-      double r[3], sh[3];
-      HSGPU::Collide::nearest_image_separation(bi.X0, X0j, prd, periodic, r, sh);
-      const double range = bi.radius + rj + 2.0 * D;
-      if (r[0] * r[0] + r[1] * r[1] + r[2] * r[2] > range * range) continue;
-      if (bj >= 0) {
-        Edge e;
-        e.i = body_of[i];
-        e.j = bj;
-        for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
-        edges.push_back(e);
-      } else {
-        fedges.push_back({body_of[i], node, j});
-      }
+      for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
+      edges.push_back(e);
+    } else {
+      ForeignEdge fe;
+      fe.body = bi;
+      fe.node = node;
+      fe.ghost = j;
+      for (int d = 0; d < 3; ++d) fe.shift[d] = sh[d];
+      fedges.push_back(fe);
     }
   }
   // A pair can appear once per periodic image held here: keep one.
@@ -242,6 +281,12 @@ int FixHardSphere::build(double D, double drift_dt, bool collect_pushes)
                              return a.body == b.body && a.node == b.node;
                            }),
                fedges.end());
+  efedges.resize(fedges.size());
+  for (size_t k = 0; k < fedges.size(); ++k) {
+    efedges[k].body = fedges[k].body;
+    efedges[k].node = fedges[k].node;
+    for (int d = 0; d < 3; ++d) efedges[k].shift[d] = fedges[k].shift[d];
+  }
 
   // Overlaps: pairs closer than contact, spheres inside a wall.
   int found = 0;
@@ -289,6 +334,7 @@ int FixHardSphere::build(double D, double drift_dt, bool collect_pushes)
     for (int d = 0; d < 3; ++d) X0j[d] = g[d] - g[3 + d] * drift_dt;
     pair_overlap(bodies[fe.body], X0j, g[6], rmass[fe.ghost], foreign_tag[fe.node], -1);
   }
+  t_search += MPI_Wtime() - t_start;
   for (const Body &b : bodies)
     for (int fc = 0; fc < HSGPU::Collide::NFACES; ++fc) {
       if (!walls.on[fc]) continue;
@@ -522,6 +568,14 @@ void FixHardSphere::resolve(Tally &mine, Tally &all, double &worst)
 
   mine = tl;
   if (comm->me == 0) mine.add(tg);
+  sum_tallies(mine, all);
+  int capped = tl.capped | tg.capped;
+  MPI_Allreduce(&capped, &all.capped, 1, MPI_INT, MPI_MAX, world);
+}
+
+/* Sums over the ranks of this rank's share of the tallies. */
+void FixHardSphere::sum_tallies(const Tally &mine, Tally &all)
+{
   long cnt[4] = {mine.pair, mine.wall, mine.rest, mine.events}, gcnt[4];
   MPI_Allreduce(cnt, gcnt, 4, MPI_LONG, MPI_SUM, world);
   all = Tally();
@@ -530,8 +584,6 @@ void FixHardSphere::resolve(Tally &mine, Tally &all, double &worst)
   all.rest = gcnt[2];
   all.events = gcnt[3];
   MPI_Allreduce(&mine.ke_lost, &all.ke_lost, 1, MPI_DOUBLE, MPI_SUM, world);
-  int capped = tl.capped | tg.capped;
-  MPI_Allreduce(&capped, &all.capped, 1, MPI_INT, MPI_MAX, world);
 }
 
 /* Positions and half-step velocities of the atoms that had events, and everyone's time of
@@ -550,6 +602,10 @@ void FixHardSphere::apply_results(double dt)
     }
     tlast[i] = std::max(b.tlast - dt, NEVER_COLLIDED);
   };
+  if (!serial_order) {
+    for (Body &b : bodies) put(b, b.owner);
+    return;
+  }
   for (Body &b : lbodies) put(b, b.owner);
   for (size_t k = 0; k < gbodies.size(); ++k)
     if (gmine[k] >= 0) put(gbodies[k], bodies[gmine[k]].owner);
@@ -563,25 +619,24 @@ void FixHardSphere::setup(int)
   prepare(0.0, 0.0);
 }
 
-void FixHardSphere::post_integrate()
+/* The seed paper's order: all of this rank's bodies (on several ranks all bodies, gathered)
+   with one global event loop. */
+void FixHardSphere::step_serial(double D, Tally &mine, Tally &all)
 {
   const double dt = update->dt;
-  double vmax;
-  double D = step_budget(vmax);
-  prepare(D, dt);
   classify();
-
-  Tally mine, all;
   double worst = 0.0;
   while (true) {
+    const double t0 = MPI_Wtime();
     resolve(mine, all, worst);
+    t_resolve += MPI_Wtime() - t0;
     if (all.capped || worst <= D) break;
     // Someone was pushed further than the budget: the edge graph may have missed a pair.
     if (worst > reach)
       error->all(FLERR,
                  "Fix hardsphere: collisions sent an atom {:.6g} in one step, more than the "
-                 "reach {:.6g} its neighbor list covers: reduce the timestep, or raise the "
-                 "fix's 'reach' keyword (and 'comm_modify cutoff' to match)",
+                 "reach {:.6g} its ghost atoms cover: reduce the timestep, or raise the fix's "
+                 "'reach' keyword",
                  worst, reach);
     D = std::min(2.0 * worst, reach);
     n_redo += 1.0;
@@ -589,6 +644,68 @@ void FixHardSphere::post_integrate()
     build(D, dt, false);
     classify();
   }
+  last_largest = (double) group->count(igroup);
+  last_groups = 1.0;
+  last_windows = 1.0;
+  last_boundary = comm->nprocs > 1 ? (double) atom->natoms : 0.0;
+}
+
+/* Time windows and groups (engine/window_driver.h). */
+void FixHardSphere::step_windows(double D, Tally &mine, Tally &all)
+{
+  const double dt = update->dt;
+  const Params p = step_params();
+  HSGPU::Collide::WindowStats stats;
+  driver.begin_step((int) bodies.size());
+  while (true) {
+    const double t0 = MPI_Wtime();
+    const bool ok = driver.run(bodies, edges, efedges, fnodes, p, wsettings, *backend, *exchange,
+                               mine, stats);
+    double w = 0.0, xe[3], ve[3];
+    for (Body &b : bodies) {
+      HSGPU::Collide::end_of_step(b, dt, xe, ve);
+      w = std::max(w, b.exc2);
+    }
+    w = std::sqrt(w);
+    double worst = 0.0;
+    MPI_Allreduce(&w, &worst, 1, MPI_DOUBLE, MPI_MAX, world);
+    t_resolve += MPI_Wtime() - t0;
+    sum_tallies(mine, all);
+    int capped = mine.capped;
+    MPI_Allreduce(&capped, &all.capped, 1, MPI_INT, MPI_MAX, world);
+    if (ok && (all.capped || worst <= D)) break;
+    n_redo += 1.0;
+    if (ok) {
+      // Someone was pushed further than the step's budget: a candidate may be missing.
+      if (worst > reach)
+        error->all(FLERR,
+                   "Fix hardsphere: collisions sent an atom {:.6g} in one step, more than the "
+                   "reach {:.6g} its ghost atoms cover: reduce the timestep, or raise the fix's "
+                   "'reach' keyword",
+                   worst, reach);
+      D = std::min(2.0 * worst, reach);
+    }
+    // A window failed its check (its bounds are raised), or D grew: start the step again.
+    forward_state();
+    build(D, dt, false);
+  }
+  last_largest = (double) stats.largest_group;
+  last_groups = (double) stats.groups;
+  last_windows = (double) stats.windows;
+  last_boundary = (double) stats.boundary_bodies;
+}
+
+void FixHardSphere::post_integrate()
+{
+  const double dt = update->dt;
+  double vmax;
+  const double D = step_budget(vmax);
+  prepare(D, dt);
+  Tally mine, all;
+  if (serial_order)
+    step_serial(D, mine, all);
+  else
+    step_windows(D, mine, all);
   if (all.capped) {
     const std::string msg = fmt::format(
         "Fix hardsphere: step {} needed more than maxevents = {} events ({} carried out); {}",

@@ -3,6 +3,8 @@
 // depend on the order of the bodies in memory, no pair overlaps after any step, momentum and
 // energy are conserved where they should be, and free flight does not depend on dt.
 #include "core/event_order.h"
+#include "engine/collision_backend.h"
+#include "engine/window_driver.h"
 
 #include <gtest/gtest.h>
 
@@ -61,12 +63,30 @@ World random_world(int n, unsigned seed, double vscale)
 struct StepResult {
   Tally tally;
   int redo = 0;
+  int window_redo = 0;
   long max_component_events = 0;
+  WindowStats stats;
 };
 
-// One velocity-Verlet step with hard-sphere collisions resolved in the given order.
-StepResult step(World &w, double dt, bool serial)
+// How a step is resolved: the global loop, components of the whole step, or time windows.
+struct Order {
+  enum Kind { Serial, Components, Windows } kind;
+  WindowSettings windows;
+};
+const Order SERIAL{Order::Serial, {}}, COMPONENTS{Order::Components, {}};
+Order windows(int n, double bound_factor = 1.5, long target = 0)
 {
+  Order o{Order::Windows, {}};
+  o.windows.nwindows = n;
+  o.windows.bound_factor = bound_factor;
+  o.windows.target_group = target;
+  return o;
+}
+
+// One velocity-Verlet step with hard-sphere collisions resolved in the given order.
+StepResult step(World &w, double dt, const Order &order)
+{
+  const bool serial = order.kind == Order::Serial;
   const int n = (int) w.s.size();
   const double a[3] = {0, 0, -w.g};
   std::vector<double> epair = {0, 0, 0, w.e};
@@ -105,6 +125,10 @@ StepResult step(World &w, double dt, bool serial)
   StepResult out;
   Resolver res;
   std::vector<Body> bodies;
+  static WindowDriver driver;
+  static std::unique_ptr<CollisionBackend> cpu = make_cpu_backend();
+  SingleRank single;
+  driver.begin_step(n);
   while (true) {
     // Edges: pairs whose start points are within contact + 2 D (nearest image).
     std::vector<Edge> edges;
@@ -121,11 +145,16 @@ StepResult step(World &w, double dt, bool serial)
       }
     bodies = start;
     out.tally = Tally();
-    if (serial)
+    if (serial) {
       res.resolve_serial(bodies, edges, p, out.tally);
-    else
+    } else if (order.kind == Order::Components) {
       res.resolve_components(bodies, edges, p, out.tally);
-    out.max_component_events = res.max_component_events;
+      out.max_component_events = res.max_component_events;
+    } else if (!driver.run(bodies, edges, {}, {}, p, order.windows, *cpu, single, out.tally,
+                           out.stats)) {
+      out.window_redo++;
+      continue;
+    }
     EXPECT_EQ(out.tally.capped, 0) << "a step needed more than " << p.maxevents << " events";
     if (out.tally.capped) return out;
     double worst = 0.0;
@@ -209,7 +238,7 @@ TEST(EventOrder, SerialAndComponentsAgreeBitwiseWithoutOverlaps)
   long pair_total = 0, wall_total = 0, max_events = 0, max_comp = 0;
   double worst = 1e300;
   for (int it = 0; it < 300; ++it) {
-    const StepResult rs = step(ws, dt, true), rc = step(wc, dt, false);
+    const StepResult rs = step(ws, dt, SERIAL), rc = step(wc, dt, COMPONENTS);
     ASSERT_EQ(rs.tally.events, rc.tally.events) << "step " << it;
     ASSERT_EQ(rs.tally.pair, rc.tally.pair) << "step " << it;
     ASSERT_EQ(rs.tally.wall, rc.tally.wall) << "step " << it;
@@ -237,8 +266,8 @@ TEST(EventOrder, ResultDoesNotDependOnMemoryOrder)
   std::mt19937_64 rng(1);
   std::shuffle(w2.s.begin(), w2.s.end(), rng);
   for (int it = 0; it < 100; ++it) {
-    step(w1, 0.02, false);
-    step(w2, 0.02, false);
+    step(w1, 0.02, windows(0));
+    step(w2, 0.02, windows(0));
   }
   std::vector<const Sphere *> by1(w1.s.size() + 1), by2(w2.s.size() + 1);
   for (auto &s : w1.s) by1[s.id] = &s;
@@ -261,7 +290,7 @@ TEST(EventOrder, ElasticPeriodicGasConservesMomentumAndEnergy)
     }
   const double k0 = kinetic(w);
   long pairs = 0;
-  for (int it = 0; it < 200; ++it) pairs += step(w, 0.02, false).tally.pair;
+  for (int it = 0; it < 200; ++it) pairs += step(w, 0.02, windows(0)).tally.pair;
   double p1[3] = {0, 0, 0};
   for (auto &s : w.s)
     for (int d = 0; d < 3; ++d) p1[d] += s.m * s.u[d];
@@ -276,7 +305,7 @@ TEST(EventOrder, InelasticGasLosesExactlyTheTalliedEnergy)
   World w = periodic_gas(23, 0.6);
   double lost = 0;
   const double k0 = kinetic(w);
-  for (int it = 0; it < 100; ++it) lost += step(w, 0.02, false).tally.ke_lost;
+  for (int it = 0; it < 100; ++it) lost += step(w, 0.02, windows(0)).tally.ke_lost;
   EXPECT_GT(lost, 0.1 * k0);
   EXPECT_NEAR(kinetic(w), k0 - lost, 1e-12 * k0);
 }
@@ -292,11 +321,11 @@ TEST(EventOrder, FreeFlightResultDoesNotDependOnTimestep)
   World w1 = base, w4 = base;
   long pairs = 0, walls = 0;
   for (int it = 0; it < 50; ++it) {
-    const StepResult r = step(w1, 0.04, false);
+    const StepResult r = step(w1, 0.04, windows(0));
     pairs += r.tally.pair;
     walls += r.tally.wall;
   }
-  for (int it = 0; it < 200; ++it) step(w4, 0.01, false);
+  for (int it = 0; it < 200; ++it) step(w4, 0.01, windows(0));
   double worst = 0.0;
   for (size_t i = 0; i < base.s.size(); ++i)
     for (int d = 0; d < 3; ++d) {
@@ -322,11 +351,11 @@ TEST(EventOrder, SettledPileIsStable)
   const double dt = 0.005;
   w.tc = dt / 2;
   long most = 0;
-  for (int it = 0; it < 2000; ++it) most = std::max(most, step(w, dt, false).tally.events);
+  for (int it = 0; it < 2000; ++it) most = std::max(most, step(w, dt, windows(0)).tally.events);
   const double ke_settled = kinetic(w);
   long most_late = 0, events_late = 0;
   for (int it = 0; it < 500; ++it) {
-    const StepResult r = step(w, dt, false);
+    const StepResult r = step(w, dt, windows(0));
     most_late = std::max(most_late, r.tally.events);
     events_late += r.tally.events;
   }
@@ -345,4 +374,93 @@ TEST(EventOrder, SettledPileIsStable)
   EXPECT_LT(top, 2.5);    // about three layers: nobody flies off
   EXPECT_GT(worst_overlap(w), -1e-12);
   for (auto &s : w.s) EXPECT_GE(s.x[2] - s.r, -1e-12);
+}
+
+// The time-window driver against the global loop, bit for bit: fixed and adaptive windows, a
+// small group target (many halvings), a low bound factor (many window redos), on a gas under
+// gravity with walls, a dense periodic fluid and a settling inelastic pile with guards.
+struct WindowCase {
+  const char *name;
+  World world;
+  double dt;
+  int steps;
+};
+
+std::vector<WindowCase> window_cases()
+{
+  std::vector<WindowCase> c;
+  c.push_back({"gas with gravity and walls", random_world(250, 11, 1.5), 0.02, 150});
+  // Equal spheres on a simple cubic lattice at packing fraction 0.4 (diameter 0.914 a).
+  World dense = random_world(343, 31, 2.0);
+  dense.g = 0.0;
+  dense.walls = false;
+  dense.periodic[2] = 1;
+  dense.e = 1.0;
+  {
+    const double a = 10.0 / 7.0;
+    for (size_t i = 0; i < dense.s.size(); ++i) {
+      Sphere &sp = dense.s[i];
+      sp.r = 0.457 * a;
+      sp.m = 1.0;
+      sp.x[0] = (i % 7 + 0.5) * a;
+      sp.x[1] = (i / 7 % 7 + 0.5) * a;
+      sp.x[2] = (i / 49 + 0.5) * a;
+    }
+  }
+  c.push_back({"dense periodic fluid", dense, 0.02, 100});
+  World pile = random_world(216, 8, 0.5);
+  pile.e = 0.5;
+  pile.ewall = 0.5;
+  pile.g = 10.0;
+  pile.tc = 0.0025;
+  c.push_back({"settling pile", pile, 0.005, 400});
+  return c;
+}
+
+TEST(WindowDriver, EqualsSerialBitwise)
+{
+  const Order orders[] = {windows(1), windows(3), windows(7), windows(0), windows(0, 1.5, 4),
+                          windows(0, 0.25, 0), windows(5, 0.1, 0)};
+  for (const WindowCase &wc : window_cases()) {
+    for (const Order &o : orders) {
+      World ws = wc.world, ww = wc.world;
+      long pairs = 0, redos = 0, largest = 0, nwin = 0;
+      for (int it = 0; it < wc.steps; ++it) {
+        const StepResult rs = step(ws, wc.dt, SERIAL), rw = step(ww, wc.dt, o);
+        ASSERT_EQ(rs.tally.events, rw.tally.events) << wc.name << ", step " << it;
+        ASSERT_EQ(rs.tally.pair, rw.tally.pair) << wc.name << ", step " << it;
+        ASSERT_EQ(rs.tally.wall, rw.tally.wall) << wc.name << ", step " << it;
+        int diff = -1;
+        ASSERT_TRUE(same_state(ws, ww, diff)) << wc.name << ", step " << it << " body " << diff;
+        pairs += rw.tally.pair;
+        redos += rw.window_redo;
+        largest = std::max(largest, rw.stats.largest_group);
+        nwin += rw.stats.windows;
+      }
+      std::printf("[ WINDOWS  ] %s, windows %d, k %.2f, target %ld: %ld pair collisions, "
+                  "largest group %ld of %zu, %.2f windows/step, %ld redos\n",
+                  wc.name, o.windows.nwindows, o.windows.bound_factor, o.windows.target_group,
+                  pairs, largest, wc.world.s.size(), (double) nwin / wc.steps, redos);
+      EXPECT_GT(pairs, 100) << wc.name;
+      if (o.windows.bound_factor < 0.5) {
+        EXPECT_GT(redos, 0) << "the redo path was not taken";
+      }
+    }
+  }
+}
+
+TEST(WindowDriver, SmallGroupsInADenseFluid)
+{
+  // With windows the dense fluid splits into small groups; one window of the whole step with
+  // every candidate joined does not.
+  World w = window_cases()[1].world, w1 = w;
+  long largest = 0, largest1 = 0;
+  for (int it = 0; it < 30; ++it) {
+    largest = std::max(largest, step(w, 0.02, windows(0, 1.5, 16)).stats.largest_group);
+    largest1 = std::max(largest1, step(w1, 0.02, windows(1, 1e9, 0)).stats.largest_group);
+  }
+  std::printf("[ WINDOWS  ] dense fluid of %zu: largest group %ld adaptive, %ld one window\n",
+              w.s.size(), largest, largest1);
+  EXPECT_LT(largest, largest1);
+  EXPECT_LT(largest, (long) w.s.size() / 4);
 }

@@ -272,10 +272,12 @@ TEST(FixHardSphere, DenseRunHasNoOverlapsAndSerialEqualsParallel)
       "fix g all gravity 1.0 vector 0 0 -1",
       "thermo_modify norm no",
       "timestep 0.01"};
-  std::vector<double> x[2], v[2];
-  double coll[2], maxev[2];
+  // The default order (adaptive time windows), fixed windows, and the global loop.
+  const char *orders[] = {"serial", "parallel", "parallel windows 1", "parallel windows 5"};
+  std::vector<double> x[4], v[4];
+  double coll[4], maxev[4], largest[4], windows[4];
   int k = 0;
-  for (const char *order : {"parallel", "serial"}) {
+  for (const char *order : orders) {
     Lammps lmp;
     lmp.commands(base);
     lmp.commands({std::string("fix hs all hardsphere restitution 0.95 wall zlo 0.9 wall zhi 1.0 "
@@ -286,6 +288,8 @@ TEST(FixHardSphere, DenseRunHasNoOverlapsAndSerialEqualsParallel)
     v[k] = lmp.gather("v", 3);
     coll[k] = lmp.fix_vector("hs", 1);
     maxev[k] = lmp.fix_vector("hs", 4);
+    largest[k] = lmp.fix_vector("hs", 6);
+    windows[k] = lmp.fix_vector("hs", 8);
     // Explicit all-pairs check of the final state (nearest image in x and y).
     const long n = lmp.natoms();
     double worst = 1e300;
@@ -300,16 +304,22 @@ TEST(FixHardSphere, DenseRunHasNoOverlapsAndSerialEqualsParallel)
         worst = std::min(worst, std::sqrt(d2) - 1.0);
       }
     EXPECT_GT(worst, -1e-9) << order;
-    std::printf("[ HS       ] dense %s: %ld spheres, 3000 steps, %.0f collisions (%.2f per "
+    std::printf("[ HS       ] dense, order %s: %ld spheres, 3000 steps, %.0f collisions (%.2f per "
                 "sphere per step), at most %.0f events in a step, closest pair %.3g from "
-                "contact\n",
-                order, n, coll[k], coll[k] / n / 3000.0, maxev[k], worst);
+                "contact; last step: largest group %.0f, %.0f windows\n",
+                order, n, coll[k], coll[k] / n / 3000.0, maxev[k], worst, largest[k], windows[k]);
     EXPECT_GT(coll[k] / 3000.0, 10.0) << "too few collisions per step to mean anything";
     ++k;
   }
-  EXPECT_EQ(coll[0], coll[1]);
-  EXPECT_EQ(max_abs_diff(x[0], x[1]), 0.0);
-  EXPECT_EQ(max_abs_diff(v[0], v[1]), 0.0);
+  for (int o = 1; o < 4; ++o) {
+    EXPECT_EQ(coll[0], coll[o]) << orders[o];
+    EXPECT_EQ(maxev[0], maxev[o]) << orders[o];
+    EXPECT_EQ(max_abs_diff(x[0], x[o]), 0.0) << orders[o];
+    EXPECT_EQ(max_abs_diff(v[0], v[o]), 0.0) << orders[o];
+  }
+  EXPECT_EQ(windows[2], 1.0);
+  EXPECT_EQ(windows[3], 5.0);
+  EXPECT_LE(largest[3], largest[2]);
 }
 
 TEST(FixHardSphere, RestartContinuationEqualsUninterruptedRun)
@@ -399,8 +409,10 @@ TEST(FixHardSphere, BadInputStopsWithANamedError)
   EXPECT_THAT(
       first_error({"fix hs all hardsphere", "run 0"}),
       HasSubstr("atoms 1 and 2 overlap at step 0: centre distance 0.5, contact distance 1"));
-  EXPECT_THAT(first_error({"comm_modify cutoff 2", "fix hs all hardsphere", "run 0"}),
-              HasSubstr("use 'comm_modify cutoff 2.3'"));
+  // A communication cutoff short of what the fix needs is raised by the fix, not an error.
+  EXPECT_EQ(first_error({"comm_modify cutoff 2", "set atom 2 x 7", "fix hs all hardsphere",
+                         "run 0"}),
+            "");
   EXPECT_THAT(first_error({"neigh_modify delay 5", "fix hs all hardsphere", "run 0"}),
               HasSubstr("neigh_modify every 1 delay 0"));
   {
@@ -418,13 +430,13 @@ TEST(FixHardSphere, BadInputStopsWithANamedError)
          "neigh_modify every 1 delay 0 check yes", "fix hs all hardsphere wall zhi 1.0", "run 0"});
     EXPECT_THAT(err, HasSubstr("wall zhi needs a fixed boundary ('f')"));
   }
-  // Atoms too fast for the neighbor list's reach.
+  // Atoms too fast for the reach the ghost atoms cover.
   {
     Lammps lmp;
     lmp.commands(box);
     const std::string err = lmp.first_error({"set atom 2 x 7", "velocity all set 30 0 0",
                                              "fix hs all hardsphere", "timestep 0.1", "run 1"});
-    EXPECT_THAT(err, HasSubstr("more than the reach 0.5 its neighbor list covers"));
+    EXPECT_THAT(err, HasSubstr("more than the reach 0.5 its ghost atoms cover"));
   }
   // More events than allowed in a step: error, or warn and go on.
   {

@@ -21,7 +21,8 @@
    energy of order m (a dt)^2 / 8, instead of needing infinitely many ever smaller bounces.
    The kinetic energy this changes is counted like a collision's (it can add a little).
 
-   Nothing here depends on LAMMPS, MPI or CUDA. */
+   Every function is callable from host and device code (hd.h).  Nothing here depends on
+   LAMMPS, MPI or CUDA. */
 #ifndef HSGPU_CORE_COLLISION_STEP_H
 #define HSGPU_CORE_COLLISION_STEP_H
 
@@ -34,8 +35,8 @@ namespace HSGPU {
 namespace Collide {
 
   /// Pair collision of bodies i and j (edge e) at time t.
-  inline void process_pair(Body &bi, Body &bj, const Edge &e, double t, const Params &p,
-                           Tally &tally)
+  HSGPU_HD void process_pair(Body &bi, Body &bj, const Edge &e, double t, const Params &p,
+                             Tally &tally)
   {
     double pi[3], pj[3], r[3];
     drift_position(bi, t, pi);
@@ -43,7 +44,7 @@ namespace Collide {
     note_excursion(bi, pi);
     note_excursion(bj, pj);
     for (int d = 0; d < 3; ++d) r[d] = pi[d] - pj[d] - e.shift[d];
-    const double rr = std::sqrt(Contact::dot3(r, r));
+    const double rr = sqrt(Contact::dot3(r, r));
     double n[3] = {1.0, 0.0, 0.0};
     if (rr > 0.0)
       for (int d = 0; d < 3; ++d) n[d] = r[d] / rr;
@@ -88,7 +89,7 @@ namespace Collide {
   }
 
   /// Collision of body b with wall face f at time t.
-  inline void process_wall(Body &b, int f, double t, const Params &p, Tally &tally)
+  HSGPU_HD void process_wall(Body &b, int f, double t, const Params &p, Tally &tally)
   {
     const int d = face_dim(f);
     const double s = face_sign(f);
@@ -101,7 +102,7 @@ namespace Collide {
     // The event was found with the body approaching; recomputed here at t, round-off can
     // leave a tiny outward speed: treat that as a contact at zero speed (which rests it)
     // rather than as no event, which would be found again at once.
-    const double un = std::fmin(s * u, 0.0);
+    const double un = fmin(s * u, 0.0);
     for (int k = 0; k < 3; ++k) b.x[k] = x[k];
     b.tref = t;
     b.last = 0;

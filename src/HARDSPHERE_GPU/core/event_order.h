@@ -35,7 +35,7 @@ namespace Collide {
     int s1, s2;
   };
 
-  inline bool earlier(const Event &a, const Event &b)
+  HSGPU_HD bool earlier(const Event &a, const Event &b)
   {
     if (a.t != b.t) return a.t < b.t;
     if (a.k1 != b.k1) return a.k1 < b.k1;
@@ -77,7 +77,6 @@ namespace Collide {
                             const Params &p, Tally &tally)
     {
       const int n = (int) bodies.size();
-      build_adjacency(n, edges);
       uf.reset(n);
       for (const Edge &e : edges) uf.unite(e.i, e.j);
       // Bodies grouped by component (counting sort on the representative).
@@ -87,10 +86,32 @@ namespace Collide {
       comp_members.resize(n);
       fill.assign(comp_start.begin(), comp_start.end() - 1);
       for (int b = 0; b < n; ++b) comp_members[fill[uf.find(b)]++] = b;
-      for (int c = 0; c < n && !tally.capped; ++c) {
-        const int lo = comp_start[c], hi = comp_start[c + 1];
-        if (hi > lo) resolve_one(bodies, edges, p, tally, lo, hi);
+      max_component_events = resolve_groups(bodies.data(), n, edges.data(), (int) edges.size(),
+                                             comp_start.data(), comp_members.data(), n,
+                                             Contact::never(), p, tally);
+    }
+
+    /// Resolves the groups comp_members[comp_start[g] .. comp_start[g + 1]) (empty groups
+    /// allowed) one after the other, each with its own event queue, up to t_end: events at
+    /// t >= t_end stay for later.  Each group's tally is summed into a fresh Tally that is then
+    /// added to `tally`.  Returns the most events one group needed.
+    long resolve_groups(Body *bodies, int n, const Edge *edges, int nedges, const int *gstart,
+                        const int *gmembers, int ngroups, double t_end, const Params &p,
+                        Tally &tally)
+    {
+      build_adjacency(n, edges, nedges);
+      long most = 0;
+      for (int g = 0; g < ngroups && !tally.capped; ++g) {
+        const int lo = gstart[g], hi = gstart[g + 1];
+        if (hi <= lo) continue;
+        Tally tg;
+        tg.events = tally.events;    // the cap counts every group's events
+        const long count = resolve_one(bodies, edges, p, tg, gmembers + lo, hi - lo, t_end);
+        tg.events -= tally.events;
+        tally.add(tg);
+        if (count > most) most = count;
       }
+      return most;
     }
 
     /// Resolves the step for all bodies with the seed paper's global loop.
@@ -98,9 +119,11 @@ namespace Collide {
                         Tally &tally)
     {
       const int n = (int) bodies.size();
-      build_adjacency(n, edges);
+      Body *bd = bodies.data();
+      const Edge *ed = edges.data();
+      build_adjacency(n, ed, (int) edges.size());
       best.resize(n);
-      for (int b = 0; b < n; ++b) best[b] = best_event(bodies, edges, p, b);
+      for (int b = 0; b < n; ++b) best[b] = best_event(bd, ed, p, b);
       while (true) {
         int arg = -1;
         for (int b = 0; b < n; ++b)
@@ -112,22 +135,22 @@ namespace Collide {
         }
         const Event ev = best[arg];
         touched.clear();
-        carry_out(bodies, edges, p, tally, ev);
+        carry_out(bd, ed, p, tally, ev);
         if (ev.face >= 0) {
           touched.push_back(ev.index);
         } else {
-          touched.push_back(edges[ev.index].i);
-          touched.push_back(edges[ev.index].j);
+          touched.push_back(ed[ev.index].i);
+          touched.push_back(ed[ev.index].j);
         }
         const size_t ntouched = touched.size();
         for (size_t k = 0; k < ntouched; ++k) {
           const int b = touched[k];
           for (int q = adj_start[b]; q < adj_start[b + 1]; ++q) {
-            const Edge &e = edges[adj[q]];
+            const Edge &e = ed[adj[q]];
             touched.push_back(e.i == b ? e.j : e.i);
           }
         }
-        for (int b : touched) best[b] = best_event(bodies, edges, p, b);
+        for (int b : touched) best[b] = best_event(bd, ed, p, b);
       }
     }
 
@@ -139,23 +162,23 @@ namespace Collide {
     std::vector<Event> heap, best;
     UnionFind uf;
 
-    void build_adjacency(int n, const std::vector<Edge> &edges)
+    void build_adjacency(int n, const Edge *edges, int nedges)
     {
       adj_start.assign(n + 1, 0);
-      for (const Edge &e : edges) {
-        adj_start[e.i + 1]++;
-        adj_start[e.j + 1]++;
+      for (int q = 0; q < nedges; ++q) {
+        adj_start[edges[q].i + 1]++;
+        adj_start[edges[q].j + 1]++;
       }
       for (int b = 0; b < n; ++b) adj_start[b + 1] += adj_start[b];
       adj.resize(adj_start[n]);
       fill.assign(adj_start.begin(), adj_start.end() - 1);
-      for (int q = 0; q < (int) edges.size(); ++q) {
+      for (int q = 0; q < nedges; ++q) {
         adj[fill[edges[q].i]++] = q;
         adj[fill[edges[q].j]++] = q;
       }
     }
 
-    static Event wall_event(const std::vector<Body> &bodies, const Params &p, int b)
+    static Event wall_event(const Body *bodies, const Params &p, int b)
     {
       Event ev;
       int face = -1;
@@ -168,8 +191,7 @@ namespace Collide {
       return ev;
     }
 
-    static Event pair_event(const std::vector<Body> &bodies, const std::vector<Edge> &edges,
-                            const Params &p, int q)
+    static Event pair_event(const Body *bodies, const Edge *edges, const Params &p, int q)
     {
       const Edge &e = edges[q];
       const Body &bi = bodies[e.i], &bj = bodies[e.j];
@@ -184,8 +206,7 @@ namespace Collide {
       return ev;
     }
 
-    Event best_event(const std::vector<Body> &bodies, const std::vector<Edge> &edges,
-                     const Params &p, int b) const
+    Event best_event(const Body *bodies, const Edge *edges, const Params &p, int b) const
     {
       Event e = wall_event(bodies, p, b);
       for (int q = adj_start[b]; q < adj_start[b + 1]; ++q) {
@@ -195,16 +216,15 @@ namespace Collide {
       return e;
     }
 
-    static bool is_current(const std::vector<Body> &bodies, const std::vector<Edge> &edges,
-                           const Event &ev)
+    static bool is_current(const Body *bodies, const Edge *edges, const Event &ev)
     {
       if (ev.face >= 0) return bodies[ev.index].nevents == ev.s1;
       const Edge &e = edges[ev.index];
       return bodies[e.i].nevents == ev.s1 && bodies[e.j].nevents == ev.s2;
     }
 
-    static void carry_out(std::vector<Body> &bodies, const std::vector<Edge> &edges,
-                          const Params &p, Tally &tally, const Event &ev)
+    static void carry_out(Body *bodies, const Edge *edges, const Params &p, Tally &tally,
+                          const Event &ev)
     {
       if (ev.face >= 0) {
         process_wall(bodies[ev.index], ev.face, ev.t, p, tally);
@@ -223,20 +243,18 @@ namespace Collide {
       std::push_heap(heap.begin(), heap.end(), later);
     }
 
-    void push_body(const std::vector<Body> &bodies, const std::vector<Edge> &edges, const Params &p,
-                   int b)
+    void push_body(const Body *bodies, const Edge *edges, const Params &p, int b)
     {
       push(wall_event(bodies, p, b));
-      for (int q = adj_start[b]; q < adj_start[b + 1]; ++q)
-        push(pair_event(bodies, edges, p, adj[q]));
+      for (int q = adj_start[b]; q < adj_start[b + 1]; ++q) push(pair_event(bodies, edges, p, adj[q]));
     }
 
-    void resolve_one(std::vector<Body> &bodies, const std::vector<Edge> &edges, const Params &p,
-                     Tally &tally, int lo, int hi)
+    long resolve_one(Body *bodies, const Edge *edges, const Params &p, Tally &tally,
+                     const int *members, int nmembers, double t_end)
     {
       heap.clear();
-      for (int k = lo; k < hi; ++k) {
-        const int b = comp_members[k];
+      for (int k = 0; k < nmembers; ++k) {
+        const int b = members[k];
         push(wall_event(bodies, p, b));
         for (int q = adj_start[b]; q < adj_start[b + 1]; ++q)
           if (edges[adj[q]].i == b) push(pair_event(bodies, edges, p, adj[q]));
@@ -247,6 +265,7 @@ namespace Collide {
         const Event ev = heap.back();
         heap.pop_back();
         if (!is_current(bodies, edges, ev)) continue;
+        if (!(ev.t < t_end)) break;    // the earliest current event: the rest wait too
         if (tally.events >= p.maxevents) {
           tally.capped = 1;
           break;
@@ -260,7 +279,7 @@ namespace Collide {
           push_body(bodies, edges, p, edges[ev.index].j);
         }
       }
-      if (count > max_component_events) max_component_events = count;
+      return count;
     }
   };
 

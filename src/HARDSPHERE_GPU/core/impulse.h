@@ -30,7 +30,7 @@ namespace Impulse {
                                         double vn, double vmin)
   {
     if (since_i < tc || since_j < tc) return 1.0;
-    if (std::fabs(vn) < vmin) return 1.0;
+    if (fabs(vn) < vmin) return 1.0;
     return e;
   }
 

@@ -42,6 +42,8 @@ namespace Collide {
     double mass;
     double tlast;    // time of the body's previous collision (negative: an earlier step)
     double exc2;     // largest squared distance of the drift line from X0 so far
+    double w0[3];    // drift-line position at the start of the current time window
+    double wexc2;    // largest squared distance of the drift line from w0 in the window
     long id;         // atom ID (> 0): fixes the order of simultaneous events
     long last;       // ID of the partner of the body's latest event if that was a pair
                      // collision that left its drift line unchanged since, else 0
@@ -123,12 +125,17 @@ namespace Collide {
     return 0.5 * b.a[d] * t * (t - dt);
   }
 
-  /// Records the distance of the drift-line point p from the start point.
+  /// Records the distance of the drift-line point p from the step's start point and from the
+  /// window's start point.
   HSGPU_HD void note_excursion(Body &b, const double *p)
   {
-    double d2 = 0.0;
-    for (int d = 0; d < 3; ++d) d2 += (p[d] - b.X0[d]) * (p[d] - b.X0[d]);
+    double d2 = 0.0, w2 = 0.0;
+    for (int d = 0; d < 3; ++d) {
+      d2 += (p[d] - b.X0[d]) * (p[d] - b.X0[d]);
+      w2 += (p[d] - b.w0[d]) * (p[d] - b.w0[d]);
+    }
     if (d2 > b.exc2) b.exc2 = d2;
+    if (w2 > b.wexc2) b.wexc2 = w2;
   }
 
   /// Time of the next contact of the pair on the drift lines, never() if none before dt (a
@@ -190,13 +197,13 @@ namespace Collide {
   /// Separation of the start points of a pair, x_i - x_j, and the periodic image shift that
   /// makes it the nearest image.  Anti-symmetric to the last bit: swapping i and j negates
   /// both results exactly, so every rank computes the same edge from the same coordinates.
-  inline void nearest_image_separation(const double *xi, const double *xj, const double *prd,
+  HSGPU_HD void nearest_image_separation(const double *xi, const double *xj, const double *prd,
                                        const int *periodic, double *r, double *shift)
   {
     for (int d = 0; d < 3; ++d) {
       const double dx = xi[d] - xj[d];
       double s = 0.0;
-      if (periodic[d]) s = std::nearbyint(dx / prd[d]) * prd[d];
+      if (periodic[d]) s = nearbyint(dx / prd[d]) * prd[d];
       shift[d] = s;
       r[d] = dx - s;
     }

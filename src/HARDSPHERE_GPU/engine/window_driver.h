@@ -1,0 +1,154 @@
+/* HARDSPHERE_GPU collision engine: the step driver.  Exact parallel resolution of one step's
+   collisions in time windows.
+
+   The caller gives this rank's bodies (at the step start), the candidate pairs of the step
+   (every pair that can touch within the step; the caller checks the step's displacement
+   budget afterwards) and the foreign nodes: bodies owned by other ranks that are candidates
+   of a local body.  The driver cuts [0, dt) into windows [t0, t1) and, in each:
+
+   1. gives every body a bound d = k |v| (t1 - t0) on how far its drift line will move in the
+      window (k = WindowSettings::bound_factor; raised for bodies that broke it before);
+   2. joins the candidate pairs whose gap at t0 is within d_i + d_j: the window's edges;
+   3. resolves each connected component (a "group") by itself with the backend: groups of
+      local bodies here, groups that reach a foreign node ("boundary groups") gathered from
+      every rank and resolved identically on all of them;
+   4. checks the window: a candidate pair that was not joined could only have touched if the
+      two drift lines together moved at least its gap.  If a body moved further than its
+      bound and such a pair exists, the step is redone from its start with that body's bound
+      raised (WindowResult::redo), which the caller does by rebuilding the bodies.
+
+   Event times depend only on the two bodies' states (core/trajectory.h), never on the window
+   or group a pair is in, and every group sees its events in the global time order restricted
+   to it: the outcome is the same, bit for bit, as resolving the whole step with the global
+   earliest-event loop (order serial), for any choice of windows.
+
+   Adaptive windows: a window starts at twice the previous one's length (at most what is left
+   of the step) and is halved while its largest group exceeds the target and halving still
+   shrinks it by a quarter, down to dt / 64.
+
+   No LAMMPS, MPI or CUDA here: communication goes through the Exchange interface. */
+#ifndef HSGPU_ENGINE_WINDOW_DRIVER_H
+#define HSGPU_ENGINE_WINDOW_DRIVER_H
+
+#include "collision_backend.h"
+
+#include "core/event_order.h"
+
+#include <vector>
+
+namespace HSGPU {
+namespace Collide {
+
+  /// A candidate pair of local body `body` and foreign node `node`; shift is the periodic
+  /// image shift of x_body - x_node.
+  struct ForeignEdge {
+    int body, node;
+    double shift[3];
+  };
+
+  /// A body owned by another rank, known here through a ghost atom.
+  struct ForeignNode {
+    long id;
+    double radius;
+  };
+
+  /// What the driver needs from the ranks around it.  SingleRank below is the trivial one.
+  class Exchange {
+   public:
+    virtual ~Exchange() = default;
+    virtual int nranks() const = 0;
+    virtual int rank() const = 0;
+    /// nval values per local body to the foreign nodes (nval per node, from their owner).
+    virtual void to_foreign(const std::vector<double> &local, int nval,
+                            std::vector<double> &foreign) = 0;
+    /// Every rank's `send`, concatenated in rank order, into `recv`; `mine` is the offset of
+    /// this rank's part.
+    virtual void allgather(const std::vector<double> &send, std::vector<double> &recv,
+                           long &mine) = 0;
+    virtual void max(double *v, int n) = 0;    // in place, over all ranks
+    virtual void sum(long *v, int n) = 0;      // in place, over all ranks
+  };
+
+  class SingleRank : public Exchange {
+   public:
+    int nranks() const override { return 1; }
+    int rank() const override { return 0; }
+    void to_foreign(const std::vector<double> &, int, std::vector<double> &foreign) override
+    {
+      foreign.clear();
+    }
+    void allgather(const std::vector<double> &send, std::vector<double> &recv,
+                   long &mine) override
+    {
+      recv = send;
+      mine = 0;
+    }
+    void max(double *, int) override {}
+    void sum(long *, int) override {}
+  };
+
+  struct WindowSettings {
+    int nwindows = 0;             // > 0: that many equal windows; 0: adaptive
+    double bound_factor = 1.5;    // k in d = k |v| (t1 - t0)
+    long target_group = 0;        // adaptive: largest group wanted; <= 0: max(128, N / 512)
+    int max_redos = 8;            // then every candidate pair is joined (one window)
+  };
+
+  /// What the last step did (global figures, the same on every rank).
+  struct WindowStats {
+    long largest_group = 0;    // most bodies resolved together in one window
+    long groups = 0;           // groups with at least one event, summed over the windows
+    long windows = 0;          // windows of the step (of its final pass)
+    long boundary_bodies = 0;  // bodies in boundary groups, summed over the windows
+  };
+
+  class WindowDriver {
+   public:
+    /// Starts a step: bound raises of the previous step are forgotten.
+    void begin_step(int nbodies);
+
+    /// Resolves one pass of the step over `bodies`.  Returns false when a window failed its
+    /// check: the caller rebuilds the bodies at the step start and calls run() again (the
+    /// raised bounds are kept).  `mine` gets the events of local groups and, on rank 0, those
+    /// of boundary groups.
+    bool run(std::vector<Body> &bodies, const std::vector<Edge> &edges,
+             const std::vector<ForeignEdge> &fedges, const std::vector<ForeignNode> &foreign,
+             const Params &p, const WindowSettings &s, CollisionBackend &backend, Exchange &ex,
+             Tally &mine, WindowStats &stats);
+
+   private:
+    std::vector<double> boost;        // raised bound per local body, this step
+    double last_delta = 0.0;          // length of the last window, for the next one's guess
+    int redos_this_step = 0;
+    // per window
+    std::vector<double> bound, fstate, wstate, fexc, lexc;
+    std::vector<Edge> wedges;         // local window edges
+    std::vector<char> fjoined, ljoined;
+    std::vector<int> fwin;            // indices of foreign edges joined in the window
+    UnionFind uf;
+    std::vector<char> isb;            // node is the root of a boundary group
+    std::vector<int> gstart, gmembers, fill;
+    int nlocal_groups = 0;
+    // boundary groups, gathered
+    std::vector<Body> gbodies;
+    std::vector<Edge> gedges;
+    std::vector<int> gmine, gstart2, gmembers2;
+    std::vector<double> send, recv;
+
+    long window_edges(std::vector<Body> &bodies, const std::vector<Edge> &edges,
+                      const std::vector<ForeignEdge> &fedges,
+                      const std::vector<ForeignNode> &foreign, double t0, double t1,
+                      const WindowSettings &s, Exchange &ex);
+    void resolve_boundary(std::vector<Body> &bodies, const std::vector<ForeignEdge> &fedges,
+                          const std::vector<ForeignNode> &foreign, const Params &p,
+                          double t1, CollisionBackend &backend, Exchange &ex, Tally &tb,
+                          long &largest, long &ngroups, long &nbound);
+    bool check_window(std::vector<Body> &bodies, const std::vector<Edge> &edges,
+                      const std::vector<ForeignEdge> &fedges,
+                      const std::vector<ForeignNode> &foreign, double t1, Exchange &ex);
+  };
+
+}    // namespace Collide
+}    // namespace HSGPU
+
+#endif

@@ -1,0 +1,66 @@
+/* HARDSPHERE_GPU: fix hardsphere's Exchange, see fix_hardsphere_exchange.h. */
+#include "fix_hardsphere_exchange.h"
+
+#include "fix_hardsphere.h"
+
+#include "atom.h"
+#include "comm.h"
+#include "error.h"
+
+#include "lmp_compat.h"
+#include "mpi_allgather.h"
+
+#include <mpi.h>
+
+using namespace LAMMPS_NS;
+
+int LammpsExchange::nranks() const
+{
+  return fix->comm->nprocs;
+}
+
+int LammpsExchange::rank() const
+{
+  return fix->comm->me;
+}
+
+/* Local body b is the owned atom bodies[b].owner; a foreign node takes the values of one of
+   its ghosts, which forward communication has given its owner's values. */
+void LammpsExchange::to_foreign(const std::vector<double> &local, int nval,
+                                std::vector<double> &foreign)
+{
+  Atom *atom = fix->atom;
+  if (fix->xfwd.size() < (size_t) nval * atom->nmax) fix->xfwd.resize((size_t) nval * atom->nmax);
+  for (size_t b = 0; b < fix->bodies.size(); ++b) {
+    const size_t i = (size_t) fix->bodies[b].owner;
+    for (int q = 0; q < nval; ++q) fix->xfwd[nval * i + q] = local[nval * b + q];
+  }
+  fix->fwd_nval = nval;
+  HsgpuCompat::forward_comm(fix->comm, fix);
+  fix->fwd_nval = 0;
+  const size_t nf = fix->foreign_ghost.size();
+  foreign.resize(nval * nf);
+  for (size_t f = 0; f < nf; ++f) {
+    const size_t j = (size_t) fix->foreign_ghost[f];
+    for (int q = 0; q < nval; ++q) foreign[nval * f + q] = fix->xfwd[nval * j + q];
+  }
+}
+
+void LammpsExchange::allgather(const std::vector<double> &send, std::vector<double> &recv,
+                               long &mine)
+{
+  std::vector<int> counts, displs;
+  if (!HSGPU::allgather_doubles(fix->world, send, recv, counts, displs))
+    fix->error->all(FLERR, "Fix hardsphere: too many atoms in groups that span ranks");
+  mine = displs[fix->comm->me];
+}
+
+void LammpsExchange::max(double *v, int n)
+{
+  MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_DOUBLE, MPI_MAX, fix->world);
+}
+
+void LammpsExchange::sum(long *v, int n)
+{
+  MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_LONG, MPI_SUM, fix->world);
+}
