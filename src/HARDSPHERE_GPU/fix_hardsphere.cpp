@@ -12,6 +12,8 @@
      5 most events in one step          12 seconds in the candidate search, in total
      6 events in total (ext)            13 seconds resolving, in total
      7 largest group, last step         14 overlaps pushed apart, in total (ext)
+                                        15 groups merged after a missed contact, in total
+                                        16 gathers of groups spanning ranks, last step
 ------------------------------------------------------------------------------------- */
 
 #include "fix_hardsphere.h"
@@ -40,7 +42,7 @@ namespace {
 
 constexpr double NEVER_COLLIDED = -1.0e30;    // tlast of an atom that never collided
 const char *const FACES[HSGPU::Collide::NFACES] = {"xlo", "xhi", "ylo", "yhi", "zlo", "zhi"};
-constexpr int NVECTOR = 14;
+constexpr int NVECTOR = 16;
 constexpr int RESTART_FORMAT = 2;    // global restart data: -format, count, values
 
 double restitution_arg(const char *arg, LAMMPS *lmp)
@@ -58,15 +60,15 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
     maxevents_user(-1), maxevents_warn(0), overlap_push(0), reach_user(-1.0), rmax(0.0),
     reach(0.0), list_cut(0.0), maxevents(0), tlast(nullptr), n_step(0.0), n_total(0.0),
     n_wall(0.0), ke_total(0.0), max_events(0.0), events_total(0.0), n_redo(0.0),
-    last_largest(0.0), last_groups(0.0), last_windows(0.0), last_boundary(0.0), t_search(0.0),
-    t_resolve(0.0), exchange(nullptr), fwd_nval(0), n_push(0.0)
+    last_largest(0.0), last_groups(0.0), last_windows(0.0), last_boundary(0.0), last_gathers(0.0), t_search(0.0),
+    t_resolve(0.0), n_repair(0.0), exchange(nullptr), fwd_nval(0), n_push(0.0)
 {
   for (double &o : ovl) o = 0.0;
   vector_flag = 1;
   size_vector = NVECTOR;
   global_freq = 1;
   extvector = -1;
-  extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1, 0, 1, 0, 0, 1, 0, 0, 1};
+  extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0};
   virial_global_flag = 1;
   thermo_virial = 1;
   restart_global = 1;
@@ -329,6 +331,10 @@ double FixHardSphere::compute_vector(int n)
     return t_resolve;
   case 13:
     return n_push;
+  case 14:
+    return n_repair;
+  case 15:
+    return last_gathers;
   default:
     return 0.0;
   }
@@ -341,8 +347,8 @@ double FixHardSphere::compute_vector(int n)
    hold 7 values: n_total n_wall ke_total max_events events_total n_redo n_step. */
 void FixHardSphere::write_restart(FILE *fp)
 {
-  const double state[] = {-(double) RESTART_FORMAT, 8.0,          n_total, n_wall, ke_total,
-                          max_events,               events_total, n_redo,  n_step, n_push};
+  const double state[] = {-(double) RESTART_FORMAT, 9.0,    n_total, n_wall,  ke_total,
+                          max_events,   events_total, n_redo, n_step,  n_push, n_repair};
   const int count = (int) (sizeof(state) / sizeof(double));
   if (comm->me == 0) {
     const int size = (int) sizeof(state);
@@ -368,6 +374,7 @@ void FixHardSphere::restart(char *buf)
   n_redo = v[5];
   n_step = v[6];
   if (count > 7) n_push = v[7];
+  if (count > 8) n_repair = v[8];
 }
 
 /* --- per-atom state: time of the last collision ----------------------------------------- */

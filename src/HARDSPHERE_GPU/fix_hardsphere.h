@@ -86,8 +86,10 @@ class FixHardSphere : public Fix {
   double last_groups;     // groups of two or more atoms resolved, last step (all windows)
   double last_windows;    // time windows of the last step
   double last_boundary;   // atoms in groups that spanned ranks, last step (all windows)
+  double last_gathers;    // gathers of the groups that span ranks, last step
   double t_search;        // seconds spent in the candidate search, in total
   double t_resolve;       // seconds spent resolving, in total
+  double n_repair;        // groups merged and resolved again after a missed contact, in total
 
   // --- per-step work ----------------------------------------------------------------------
   // Forwarded per atom: owner's x (3), v (3), radius, owner rank, owner's local index.
@@ -95,7 +97,7 @@ class FixHardSphere : public Fix {
   std::vector<double> gdata;    // forwarded per-atom data, NFWD per owned and ghost atom
   std::vector<int> body_of;     // local atom -> body index, -1 when none
   std::vector<HSGPU::Collide::Body> bodies;
-  std::vector<HSGPU::Collide::Edge> edges;
+  std::vector<HSGPU::Collide::Edge> edges, iedges;
   std::vector<int> foreign_of;        // ghost - nlocal -> foreign node, -1 when none
   std::vector<tagint> foreign_tag;    // foreign node -> atom ID
   struct ForeignEdge {

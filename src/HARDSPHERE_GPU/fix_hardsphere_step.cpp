@@ -217,20 +217,24 @@ int FixHardSphere::build(double D, double drift_dt, bool collect_pushes)
 
   edges.clear();
   fedges.clear();
+  iedges.clear();
   for (size_t k = 0; k < spairs.size(); k += 2) {
     const int i = sidx[spairs[k]], j = sidx[spairs[k + 1]];
     if (tag[j] == tag[i]) continue;    // an atom and its own image
     const int bi = body_of[i];
     int bj = -1, node = -1;
+    bool image = false;    // j is a periodic image of an atom of mine
     double X0j[3], rj;
     if (j < nlocal) {
       bj = body_of[j];
     } else {
       const double *g = &gdata[(size_t) NFWD * j];
-      if ((int) g[7] == me)
+      if ((int) g[7] == me) {
         bj = body_of[(int) g[8]];
-      else
+        image = true;
+      } else {
         node = foreign_of[j - nlocal];
+      }
       if (bj < 0 && node < 0) continue;
     }
     if (bj >= 0) {
@@ -257,7 +261,7 @@ int FixHardSphere::build(double D, double drift_dt, bool collect_pushes)
                                                  r, sh);
       }
       for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
-      edges.push_back(e);
+      (image ? iedges : edges).push_back(e);
     } else {
       ForeignEdge fe;
       fe.body = bi;
@@ -267,12 +271,18 @@ int FixHardSphere::build(double D, double drift_dt, bool collect_pushes)
       fedges.push_back(fe);
     }
   }
-  // A pair can appear once per periodic image held here: keep one.
-  std::sort(edges.begin(), edges.end(),
-            [](const Edge &a, const Edge &b) { return a.i < b.i || (a.i == b.i && a.j < b.j); });
-  edges.erase(std::unique(edges.begin(), edges.end(),
-                          [](const Edge &a, const Edge &b) { return a.i == b.i && a.j == b.j; }),
-              edges.end());
+  // A pair of my atoms found through periodic images appears once per image held here: keep
+  // one.  Pairs found directly appear once, and never also through an image (init() keeps
+  // periodic lengths above twice the candidate range).
+  if (!iedges.empty()) {
+    std::sort(iedges.begin(), iedges.end(), [](const Edge &a, const Edge &b) {
+      return a.i < b.i || (a.i == b.i && a.j < b.j);
+    });
+    iedges.erase(std::unique(iedges.begin(), iedges.end(),
+                             [](const Edge &a, const Edge &b) { return a.i == b.i && a.j == b.j; }),
+                 iedges.end());
+    edges.insert(edges.end(), iedges.begin(), iedges.end());
+  }
   std::sort(fedges.begin(), fedges.end(), [](const ForeignEdge &a, const ForeignEdge &b) {
     return a.body < b.body || (a.body == b.body && a.node < b.node);
   });
@@ -648,6 +658,7 @@ void FixHardSphere::step_serial(double D, Tally &mine, Tally &all)
   last_groups = 1.0;
   last_windows = 1.0;
   last_boundary = comm->nprocs > 1 ? (double) atom->natoms : 0.0;
+  last_gathers = comm->nprocs > 1 ? 1.0 : 0.0;
 }
 
 /* Time windows and groups (engine/window_driver.h). */
@@ -656,11 +667,9 @@ void FixHardSphere::step_windows(double D, Tally &mine, Tally &all)
   const double dt = update->dt;
   const Params p = step_params();
   HSGPU::Collide::WindowStats stats;
-  driver.begin_step((int) bodies.size());
   while (true) {
     const double t0 = MPI_Wtime();
-    const bool ok = driver.run(bodies, edges, efedges, fnodes, p, wsettings, *backend, *exchange,
-                               mine, stats);
+    driver.run(bodies, edges, efedges, fnodes, p, wsettings, *backend, *exchange, mine, stats);
     double w = 0.0, xe[3], ve[3];
     for (Body &b : bodies) {
       HSGPU::Collide::end_of_step(b, dt, xe, ve);
@@ -673,19 +682,17 @@ void FixHardSphere::step_windows(double D, Tally &mine, Tally &all)
     sum_tallies(mine, all);
     int capped = mine.capped;
     MPI_Allreduce(&capped, &all.capped, 1, MPI_INT, MPI_MAX, world);
-    if (ok && (all.capped || worst <= D)) break;
+    n_repair += (double) stats.repairs;
+    if (all.capped || worst <= D) break;
+    // Someone was pushed further than the step's budget: a candidate may be missing.
     n_redo += 1.0;
-    if (ok) {
-      // Someone was pushed further than the step's budget: a candidate may be missing.
-      if (worst > reach)
-        error->all(FLERR,
-                   "Fix hardsphere: collisions sent an atom {:.6g} in one step, more than the "
-                   "reach {:.6g} its ghost atoms cover: reduce the timestep, or raise the fix's "
-                   "'reach' keyword",
-                   worst, reach);
-      D = std::min(2.0 * worst, reach);
-    }
-    // A window failed its check (its bounds are raised), or D grew: start the step again.
+    if (worst > reach)
+      error->all(FLERR,
+                 "Fix hardsphere: collisions sent an atom {:.6g} in one step, more than the "
+                 "reach {:.6g} its ghost atoms cover: reduce the timestep, or raise the fix's "
+                 "'reach' keyword",
+                 worst, reach);
+    D = std::min(2.0 * worst, reach);
     forward_state();
     build(D, dt, false);
   }
@@ -693,6 +700,7 @@ void FixHardSphere::step_windows(double D, Tally &mine, Tally &all)
   last_groups = (double) stats.groups;
   last_windows = (double) stats.windows;
   last_boundary = (double) stats.boundary_bodies;
+  last_gathers = (double) stats.gathers;
 }
 
 void FixHardSphere::post_integrate()

@@ -94,22 +94,29 @@ namespace Collide {
     /// Resolves the groups comp_members[comp_start[g] .. comp_start[g + 1]) (empty groups
     /// allowed) one after the other, each with its own event queue, up to t_end: events at
     /// t >= t_end stay for later.  Each group's tally is summed into a fresh Tally that is then
-    /// added to `tally`.  Returns the most events one group needed.
+    /// added to `tally` (or, with per_group, stored in per_group[g]).  Returns the most
+    /// events one group needed.
     long resolve_groups(Body *bodies, int n, const Edge *edges, int nedges, const int *gstart,
                         const int *gmembers, int ngroups, double t_end, const Params &p,
-                        Tally &tally)
+                        Tally &tally, Tally *per_group = nullptr)
     {
       build_adjacency(n, edges, nedges);
-      long most = 0;
-      for (int g = 0; g < ngroups && !tally.capped; ++g) {
-        const int lo = gstart[g], hi = gstart[g + 1];
-        if (hi <= lo) continue;
+      long most = 0, running = tally.events;
+      for (int g = 0; g < ngroups; ++g) {
         Tally tg;
-        tg.events = tally.events;    // the cap counts every group's events
-        const long count = resolve_one(bodies, edges, p, tg, gmembers + lo, hi - lo, t_end);
-        tg.events -= tally.events;
-        tally.add(tg);
-        if (count > most) most = count;
+        const int lo = gstart[g], hi = gstart[g + 1];
+        if (hi > lo && !tally.capped) {
+          tg.events = running;    // the cap counts every group's events
+          const long count = resolve_one(bodies, edges, p, tg, gmembers + lo, hi - lo, t_end);
+          tg.events -= running;
+          running += tg.events;
+          if (count > most) most = count;
+          if (tg.capped) tally.capped = 1;
+        }
+        if (per_group)
+          per_group[g] = tg;
+        else
+          tally.add(tg);
       }
       return most;
     }

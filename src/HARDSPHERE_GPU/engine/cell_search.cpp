@@ -49,31 +49,40 @@ namespace Collide {
       start[cell_of[i] + 1]++;
     }
     for (long c = 0; c < nc; ++c) start[c + 1] += start[c];
+    // Points in cell order, contiguous (x, y, z, radius), so that a cell's points are read
+    // in one sweep.
     order.resize(n);
+    sorted.resize((size_t) 4 * n);
     {
       std::vector<int> fill(start.begin(), start.end() - 1);
-      for (int i = 0; i < n; ++i) order[fill[cell_of[i]]++] = i;
+      for (int i = 0; i < n; ++i) {
+        const int k = fill[cell_of[i]]++;
+        order[k] = i;
+        for (int d = 0; d < 3; ++d) sorted[(size_t) 4 * k + d] = x[3 * i + d];
+        sorted[(size_t) 4 * k + 3] = rad[i];
+      }
     }
     for (int i = 0; i < nsearch; ++i) {
       const long ci[3] = {coord(i, 0), coord(i, 1), coord(i, 2)};
-      const double *xi = x + 3 * i;
+      const double xi[3] = {x[3 * i], x[3 * i + 1], x[3 * i + 2]};
+      const double ri = rad[i] + extra;
       for (long cz = std::max(0L, ci[2] - 1); cz <= std::min(ncell[2] - 1, ci[2] + 1); ++cz)
-        for (long cy = std::max(0L, ci[1] - 1); cy <= std::min(ncell[1] - 1, ci[1] + 1); ++cy)
-          for (long cx = std::max(0L, ci[0] - 1); cx <= std::min(ncell[0] - 1, ci[0] + 1);
-               ++cx) {
-            const long c = (cz * ncell[1] + cy) * ncell[0] + cx;
-            for (int k = start[c]; k < start[c + 1]; ++k) {
+        for (long cy = std::max(0L, ci[1] - 1); cy <= std::min(ncell[1] - 1, ci[1] + 1); ++cy) {
+          const long row = (cz * ncell[1] + cy) * ncell[0];
+          const int lo = start[row + std::max(0L, ci[0] - 1)];
+          const int hi = start[row + std::min(ncell[0] - 1, ci[0] + 1) + 1];
+          for (int k = lo; k < hi; ++k) {
+            const double *q = &sorted[(size_t) 4 * k];
+            const double dx = xi[0] - q[0], dy = xi[1] - q[1], dz = xi[2] - q[2];
+            const double range = ri + q[3];
+            if (dx * dx + dy * dy + dz * dz <= range * range) {
               const int j = order[k];
               if (j <= i) continue;
-              const double dx = xi[0] - x[3 * j], dy = xi[1] - x[3 * j + 1],
-                           dz = xi[2] - x[3 * j + 2];
-              const double range = rad[i] + rad[j] + extra;
-              if (dx * dx + dy * dy + dz * dz <= range * range) {
-                pairs.push_back(i);
-                pairs.push_back(j);
-              }
+              pairs.push_back(i);
+              pairs.push_back(j);
             }
           }
+        }
     }
   }
 

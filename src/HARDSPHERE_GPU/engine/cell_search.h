@@ -27,6 +27,7 @@ namespace Collide {
    private:
     long ncell[3] = {1, 1, 1};
     std::vector<int> cell_of, start, order;
+    std::vector<double> sorted;
   };
 
 }    // namespace Collide

@@ -12,7 +12,9 @@
    - a group's events are those of core/event_order.h's order restricted to the group and to
      t < t_end, computed from the bodies' own states only;
    - the tally of each group is summed in event order into a fresh Tally, and the groups'
-     tallies are added to the caller's in group order.
+     tallies are added to the caller's in group order (or handed back one per group);
+   - p.maxevents caps the events of all groups of the call together, counted in group order
+     from the caller's tally.events.
 
    This header includes nothing from LAMMPS, MPI or CUDA. */
 #ifndef HSGPU_ENGINE_COLLISION_BACKEND_H
@@ -36,6 +38,9 @@ namespace Collide {
     const int *group_members;    //   group_start[g + 1]), in increasing body index
     int ngroups;
     double t_end;    // events at t >= t_end are left to the next window
+    /// Optional (nullptr: not used): group g's tally is stored in group_tally[g] instead of
+    /// being added to the caller's, which then only gets `capped`.
+    Tally *group_tally = nullptr;
   };
 
   class CollisionBackend {

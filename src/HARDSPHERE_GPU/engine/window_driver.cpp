@@ -109,12 +109,6 @@ namespace Collide {
 
   }    // namespace
 
-  void WindowDriver::begin_step(int nbodies)
-  {
-    boost.assign(nbodies, 0.0);
-    redos_this_step = 0;
-  }
-
   /* The window [t0, t1): window start points, bounds, the window's edges and the local groups
      (gstart/gmembers; boundary groups are left out, their roots flagged in isb).  Returns the
      largest local group over all ranks. */
@@ -124,9 +118,7 @@ namespace Collide {
                                   const WindowSettings &s, Exchange &ex)
   {
     const int nb = (int) bodies.size(), nf = (int) foreign.size();
-    const bool join_all = redos_this_step >= s.max_redos;
     const double delta = t1 - t0;
-    const double inf = std::numeric_limits<double>::infinity();
     bound.resize(nb);
     wstate.resize((size_t) 4 * nb);
     for (int b = 0; b < nb; ++b) {
@@ -134,7 +126,7 @@ namespace Collide {
       drift_position(bd, t0, bd.w0);
       bd.wexc2 = 0.0;
       const double speed = std::sqrt(Contact::dot3(bd.v, bd.v));
-      bound[b] = join_all ? inf : std::max(s.bound_factor * speed * delta, boost[b]);
+      bound[b] = s.bound_factor * speed * delta;
       for (int d = 0; d < 3; ++d) wstate[(size_t) 4 * b + d] = bd.w0[d];
       wstate[(size_t) 4 * b + 3] = bound[b];
     }
@@ -179,6 +171,14 @@ namespace Collide {
     int ngroups = 0;
     long largest = group_by_root(uf, nb, &isb, gstart, gmembers, fill, ngroups);
     nlocal_groups = ngroups;
+    // The local parts of boundary groups count too (a lower bound of their size).
+    if (nf > 0) {
+      fill.assign(nb + nf, 0);
+      for (int b = 0; b < nb; ++b) {
+        const int r = uf.find(b);
+        if (isb[r]) largest = std::max(largest, (long) ++fill[r]);
+      }
+    }
     double l = (double) largest;
     ex.max(&l, 1);
     return (long) l;
@@ -286,13 +286,8 @@ namespace Collide {
       }
   }
 
-  /* After the window: could a pair that was not joined have touched?  Only if a body of it
-     moved further than its bound, and the two moved at least the pair's gap together.  Raises
-     the bounds of the bodies that did so.  Returns true when the window is exact. */
-  bool WindowDriver::check_window(std::vector<Body> &bodies, const std::vector<Edge> &edges,
-                                  const std::vector<ForeignEdge> &fedges,
-                                  const std::vector<ForeignNode> &foreign, double t1,
-                                  Exchange &ex)
+  /* Each local body's largest distance from its window start point, at the window end t1. */
+  void WindowDriver::excursions(std::vector<Body> &bodies, double t1)
   {
     const int nb = (int) bodies.size();
     lexc.resize(nb);
@@ -302,27 +297,148 @@ namespace Collide {
       note_excursion(bodies[b], p);
       lexc[b] = std::sqrt(bodies[b].wexc2);
     }
-    if (ex.nranks() > 1) ex.to_foreign(lexc, 1, fexc);
-    double fail = 0.0;
+  }
+
+  /* A candidate pair that was not joined could only have touched if a body of it moved
+     further than its bound and the two moved at least the pair's gap together.  For such
+     pairs between two local groups the groups are merged and resolved again from the window
+     start, until no such pair is left.  Returns the largest merged group. */
+  long WindowDriver::repair_local(std::vector<Body> &bodies, const std::vector<Edge> &edges,
+                                  const Params &p, double t1, CollisionBackend &backend,
+                                  long events_before, long &repairs)
+  {
+    const int ng = nlocal_groups;
+    long largest = 0;
+    std::vector<int> failing;
+    std::vector<char> redo(ng, 0);
+    for (int pass = 0;; ++pass) {
+      failing.clear();
+      for (size_t q = 0; q < edges.size(); ++q) {
+        if (ljoined[q]) continue;
+        const Edge &e = edges[q];
+        const int gi = group_of[e.i], gj = group_of[e.j];
+        if (gi < 0 || gj < 0) continue;    // a boundary group: checked after its resolution
+        if (!(lexc[e.i] > bound[e.i]) && !(lexc[e.j] > bound[e.j])) continue;
+        const Body &bi = bodies[e.i], &bj = bodies[e.j];
+        const double s2 = bi.radius + bj.radius;
+        if (lexc[e.i] + lexc[e.j] + MARGIN * s2 < window_gap(bi.w0, bj.w0, e.shift, s2)) continue;
+        failing.push_back((int) q);
+      }
+      if (failing.empty()) return largest;
+      // Merge, and take the merged groups back to the window start.
+      std::fill(redo.begin(), redo.end(), 0);
+      for (int q : failing) {
+        ljoined[q] = 1;
+        wedges.push_back(edges[q]);
+        uf.unite(edges[q].i, edges[q].j);
+        merged.unite(merged.find(group_of[edges[q].i]), merged.find(group_of[edges[q].j]));
+      }
+      for (int q : failing) redo[merged.find(group_of[edges[q].i])] = 1;
+      // The merged groups' bodies, compacted (in body order within each), and their edges.
+      subgroups.clear();
+      for (int g = 0; g < ng; ++g)
+        if (redo[merged.find(g)]) subgroups.push_back(g);
+      std::vector<int> root_slot(ng, -1);
+      int nsets = 0;
+      for (int g : subgroups)
+        if (root_slot[merged.find(g)] < 0) root_slot[merged.find(g)] = nsets++;
+      substart.assign(nsets + 1, 0);
+      for (int g : subgroups) substart[root_slot[merged.find(g)] + 1] += gstart[g + 1] - gstart[g];
+      for (int k = 0; k < nsets; ++k) substart[k + 1] += substart[k];
+      submembers.resize(substart[nsets]);
+      {
+        std::vector<int> pos(substart.begin(), substart.end() - 1);
+        for (int g : subgroups)
+          for (int m = gstart[g]; m < gstart[g + 1]; ++m)
+            submembers[pos[root_slot[merged.find(g)]]++] = gmembers[m];
+      }
+      sub.resize(submembers.size());
+      sub_of.resize(bodies.size());
+      for (int k = 0; k < nsets; ++k) {
+        std::sort(submembers.begin() + substart[k], submembers.begin() + substart[k + 1]);
+        largest = std::max(largest, (long) (substart[k + 1] - substart[k]));
+      }
+      for (size_t m = 0; m < submembers.size(); ++m) {
+        const int b = submembers[m];
+        sub[m] = snap[b];
+        sub[m].owner = b;
+        sub_of[b] = (int) m;
+      }
+      // Members of a set occupy one contiguous range: the groups list is the identity.
+      std::vector<int> ident(submembers.size());
+      for (size_t m = 0; m < ident.size(); ++m) ident[m] = (int) m;
+      subedges.clear();
+      for (const Edge &e : wedges) {
+        const int g = group_of[e.i];
+        if (g < 0 || !redo[merged.find(g)]) continue;
+        Edge se = e;
+        se.i = sub_of[e.i];
+        se.j = sub_of[e.j];
+        subedges.push_back(se);
+      }
+      std::vector<Tally> st(nsets);
+      Tally cap;
+      cap.events = events_before;
+      for (int g = 0; g < ng; ++g)
+        if (!redo[merged.find(g)]) cap.events += gtally[g].events;
+      WindowWork w{sub.data(), (int) sub.size(), subedges.data(), (int) subedges.size(),
+                   substart.data(), ident.data(), nsets, t1, st.data()};
+      backend.resolve(w, p, cap);
+      repairs += nsets;
+      // Back into place; the merged set's tally goes to its root group.
+      for (size_t m = 0; m < sub.size(); ++m) {
+        const int b = submembers[m];
+        const int owner = bodies[b].owner;
+        bodies[b] = sub[m];
+        bodies[b].owner = owner;
+        double pe[3];
+        drift_position(bodies[b], t1, pe);
+        note_excursion(bodies[b], pe);
+        lexc[b] = std::sqrt(bodies[b].wexc2);
+      }
+      for (int g : subgroups) gtally[g] = Tally();
+      for (int g : subgroups) {
+        const int r = merged.find(g);
+        if (r == g) gtally[g] = st[root_slot[r]];
+      }
+      if (cap.capped) {
+        gtally[subgroups[0]].capped = 1;
+        return largest;
+      }
+    }
+  }
+
+  /* After the boundary groups: the pairs not joined that involve a boundary group or a
+     foreign node and could have touched.  They are joined (their local groups become part of
+     the boundary groups); every rank sees the same foreign pairs.  Returns the number joined
+     over all ranks. */
+  long WindowDriver::join_missed_boundary(std::vector<Body> &bodies,
+                                          const std::vector<Edge> &edges,
+                                          const std::vector<ForeignEdge> &fedges,
+                                          const std::vector<ForeignNode> &foreign, Exchange &ex)
+  {
+    const int nb = (int) bodies.size();
+    ex.to_foreign(lexc, 1, fexc);
+    long joined = 0;
     for (size_t q = 0; q < edges.size(); ++q) {
       if (ljoined[q]) continue;
       const Edge &e = edges[q];
-      const bool vi = lexc[e.i] > bound[e.i], vj = lexc[e.j] > bound[e.j];
-      if (!vi && !vj) continue;
+      if (group_of[e.i] >= 0 && group_of[e.j] >= 0) continue;    // repaired already
+      if (!(lexc[e.i] > bound[e.i]) && !(lexc[e.j] > bound[e.j])) continue;
       const Body &bi = bodies[e.i], &bj = bodies[e.j];
       const double s2 = bi.radius + bj.radius;
       if (lexc[e.i] + lexc[e.j] + MARGIN * s2 < window_gap(bi.w0, bj.w0, e.shift, s2)) continue;
-      fail = 1.0;
-      if (vi) boost[e.i] = std::max(boost[e.i], 2.0 * lexc[e.i]);
-      if (vj) boost[e.j] = std::max(boost[e.j], 2.0 * lexc[e.j]);
+      ljoined[q] = 1;
+      wedges.push_back(e);
+      uf.unite(e.i, e.j);
+      ++joined;
     }
     for (size_t q = 0; q < fedges.size(); ++q) {
       if (fjoined[q]) continue;
       const ForeignEdge &fe = fedges[q];
       const double *fw = &fstate[(size_t) 4 * fe.node];
       const double fx = fexc[fe.node];
-      const bool vi = lexc[fe.body] > bound[fe.body], vj = fx > fw[3];
-      if (!vi && !vj) continue;
+      if (!(lexc[fe.body] > bound[fe.body]) && !(fx > fw[3])) continue;
       const Body &b = bodies[fe.body];
       const double s2 = b.radius + foreign[fe.node].radius;
       double gap;
@@ -333,22 +449,43 @@ namespace Collide {
         gap = window_gap(fw, b.w0, ns, s2);
       }
       if (lexc[fe.body] + fx + MARGIN * s2 < gap) continue;
-      fail = 1.0;
-      if (vi) boost[fe.body] = std::max(boost[fe.body], 2.0 * lexc[fe.body]);
+      fjoined[q] = 1;
+      fwin.push_back((int) q);
+      uf.unite(fe.body, nb + fe.node);
+      ++joined;
     }
-    ex.max(&fail, 1);
-    return fail == 0.0;
+    long c[1] = {joined};
+    ex.sum(c, 1);
+    if (c[0] == 0) return 0;
+    // Boundary roots anew; every body in a boundary group (old or new) back to the window
+    // start; local groups that joined one leave the local tallies.
+    const int nf = (int) foreign.size();
+    isb.assign(nb + nf, 0);
+    for (int k = 0; k < nf; ++k) isb[uf.find(nb + k)] = 1;
+    for (int b = 0; b < nb; ++b) {
+      if (!isb[uf.find(b)]) continue;
+      const int g = group_of[b];
+      if (g >= 0) {
+        gtally[merged.find(g)] = Tally();
+        gtally[g] = Tally();
+      }
+      group_of[b] = -1;
+      const int owner = bodies[b].owner;
+      bodies[b] = snap[b];
+      bodies[b].owner = owner;
+    }
+    return c[0];
   }
 
-  bool WindowDriver::run(std::vector<Body> &bodies, const std::vector<Edge> &edges,
+  void WindowDriver::run(std::vector<Body> &bodies, const std::vector<Edge> &edges,
                          const std::vector<ForeignEdge> &fedges,
                          const std::vector<ForeignNode> &foreign, const Params &p,
                          const WindowSettings &s, CollisionBackend &backend, Exchange &ex,
                          Tally &mine, WindowStats &stats)
   {
     const double dt = p.dt;
-    const bool join_all = redos_this_step >= s.max_redos;
-    long counts[2] = {(long) bodies.size(), 0};
+    const int nb = (int) bodies.size();
+    long counts[1] = {(long) nb};
     ex.sum(counts, 1);
     const long target = s.target_group > 0 ? s.target_group : std::max(128L, counts[0] / 512);
     stats = WindowStats();
@@ -356,14 +493,10 @@ namespace Collide {
     double t0 = 0.0;
     double guess = last_delta > 0.0 ? std::min(2.0 * last_delta, dt) : dt;
     int k = 0;
-    long largest_all = 0, ngroups_all = 0, nbound_all = 0;
     while (t0 < dt) {
       double t1;
       long largest;
-      if (join_all) {
-        t1 = dt;
-        largest = window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex);
-      } else if (s.nwindows > 0) {
+      if (s.nwindows > 0) {
         t1 = (k + 1 >= s.nwindows) ? dt : dt * (double) (k + 1) / (double) s.nwindows;
         largest = window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex);
       } else {
@@ -388,47 +521,62 @@ namespace Collide {
           guess = std::min(2.0 * last_delta, dt);
         }
       }
-      largest_all = std::max(largest_all, largest);
 
-      // Local groups.
-      long ngroups = 0;
+      // Local groups, each with its own tally (a repair replaces a group's tally).
+      snap = bodies;
+      group_of.assign(nb, -1);
       for (int g = 0; g < nlocal_groups; ++g)
-        if (gstart[g + 1] - gstart[g] > 1) ++ngroups;
-      WindowWork w{bodies.data(), (int) bodies.size(), wedges.data(), (int) wedges.size(),
-                   gstart.data(), gmembers.data(), nlocal_groups, t1};
-      backend.resolve(w, p, tloc);
-      // Boundary groups, the same on every rank.
+        for (int m = gstart[g]; m < gstart[g + 1]; ++m) group_of[gmembers[m]] = g;
+      gtally.assign(nlocal_groups, Tally());
+      Tally cap;
+      cap.events = tloc.events;
+      WindowWork w{bodies.data(), nb, wedges.data(), (int) wedges.size(), gstart.data(),
+                   gmembers.data(), nlocal_groups, t1, gtally.data()};
+      backend.resolve(w, p, cap);
+      excursions(bodies, t1);
+      long repairs = 0;
+      merged.reset(nlocal_groups);
+      largest = std::max(largest, repair_local(bodies, edges, p, t1, backend, tloc.events, repairs));
+      // Boundary groups, the same on every rank; repaired until no missed pair is left.
       long bl = 0, bg = 0, nbound = 0;
       if (ex.nranks() > 1) {
-        resolve_boundary(bodies, fedges, foreign, p, t1, backend, ex, tbnd, bl, bg, nbound);
-        largest_all = std::max(largest_all, bl);
+        const Tally tbnd_start = tbnd;
+        for (int pass = 0;; ++pass) {
+          tbnd = tbnd_start;
+          bl = bg = nbound = 0;
+          resolve_boundary(bodies, fedges, foreign, p, t1, backend, ex, tbnd, bl, bg, nbound);
+          excursions(bodies, t1);
+          const long joined = join_missed_boundary(bodies, edges, fedges, foreign, ex);
+          ++stats.gathers;
+          if (joined == 0) break;
+          repairs += joined;
+        }
       }
-      long c[1] = {ngroups};
-      ex.sum(c, 1);
-      ngroups_all += c[0] + bg;
-      nbound_all += nbound;
-
-      const bool ok = check_window(bodies, edges, fedges, foreign, t1, ex);
-      double capped = (tloc.capped | tbnd.capped) ? 1.0 : 0.0;
-      ex.max(&capped, 1);
+      int capped = cap.capped | tbnd.capped;
+      long ngroups = 0;
+      for (int g = 0; g < nlocal_groups; ++g) {
+        capped |= gtally[g].capped;
+        tloc.add(gtally[g]);
+        if (gtally[g].events > 0) ++ngroups;
+      }
+      double flags[2] = {capped ? 1.0 : 0.0, (double) largest};
+      ex.max(flags, 2);
+      long c[2] = {ngroups, repairs};
+      ex.sum(c, 2);
+      stats.largest_group = std::max({stats.largest_group, (long) flags[1], bl});
+      stats.groups += c[0] + bg;
+      stats.boundary_bodies += nbound;
+      stats.repairs += c[1];
       ++k;
-      if (!ok && !join_all && capped == 0.0) {
-        ++redos_this_step;
-        return false;
-      }
-      if (capped != 0.0) {
+      if (flags[0] != 0.0) {
         tloc.capped = 1;
         break;
       }
       t0 = t1;
     }
-    stats.largest_group = largest_all;
-    stats.groups = ngroups_all;
     stats.windows = k;
-    stats.boundary_bodies = nbound_all;
     mine = tloc;
     if (ex.rank() == 0) mine.add(tbnd);
-    return true;
   }
 
 }    // namespace Collide

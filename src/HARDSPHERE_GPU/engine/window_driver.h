@@ -13,9 +13,12 @@
       local bodies here, groups that reach a foreign node ("boundary groups") gathered from
       every rank and resolved identically on all of them;
    4. checks the window: a candidate pair that was not joined could only have touched if the
-      two drift lines together moved at least its gap.  If a body moved further than its
-      bound and such a pair exists, the step is redone from its start with that body's bound
-      raised (WindowResult::redo), which the caller does by rebuilding the bodies.
+      two drift lines together moved at least its gap.  Where such a pair joins two local
+      groups, the two are merged and resolved again together from the window start (a
+      "repair"; repeated until no such pair is left).  Where it involves a boundary group or a
+      foreign node, it is joined, the local groups it reaches become part of the boundary
+      groups, and the boundary groups are gathered and resolved again from the window start
+      on every rank, until no such pair is left.  No window or step is ever redone.
 
    Event times depend only on the two bodies' states (core/trajectory.h), never on the window
    or group a pair is in, and every group sees its events in the global time order restricted
@@ -91,7 +94,6 @@ namespace Collide {
     int nwindows = 0;             // > 0: that many equal windows; 0: adaptive
     double bound_factor = 1.5;    // k in d = k |v| (t1 - t0)
     long target_group = 0;        // adaptive: largest group wanted; <= 0: max(128, N / 512)
-    int max_redos = 8;            // then every candidate pair is joined (one window)
   };
 
   /// What the last step did (global figures, the same on every rank).
@@ -100,27 +102,29 @@ namespace Collide {
     long groups = 0;           // groups with at least one event, summed over the windows
     long windows = 0;          // windows of the step (of its final pass)
     long boundary_bodies = 0;  // bodies in boundary groups, summed over the windows
+    long repairs = 0;            // groups resolved again after a missed pair was joined
+    long gathers = 0;            // gathers of boundary groups (windows and their repairs)
   };
 
   class WindowDriver {
    public:
-    /// Starts a step: bound raises of the previous step are forgotten.
-    void begin_step(int nbodies);
-
-    /// Resolves one pass of the step over `bodies`.  Returns false when a window failed its
-    /// check: the caller rebuilds the bodies at the step start and calls run() again (the
-    /// raised bounds are kept).  `mine` gets the events of local groups and, on rank 0, those
-    /// of boundary groups.
-    bool run(std::vector<Body> &bodies, const std::vector<Edge> &edges,
+    /// Resolves the step over `bodies`.  `mine` gets the events of local groups and, on rank
+    /// 0, those of boundary groups.  The caller still checks the step's displacement budget.
+    void run(std::vector<Body> &bodies, const std::vector<Edge> &edges,
              const std::vector<ForeignEdge> &fedges, const std::vector<ForeignNode> &foreign,
              const Params &p, const WindowSettings &s, CollisionBackend &backend, Exchange &ex,
              Tally &mine, WindowStats &stats);
 
    private:
-    std::vector<double> boost;        // raised bound per local body, this step
     double last_delta = 0.0;          // length of the last window, for the next one's guess
-    int redos_this_step = 0;
     // per window
+    std::vector<Body> snap;           // the bodies at the window start
+    std::vector<Tally> gtally;        // tally of each local group
+    std::vector<int> group_of;        // local body -> local group, -1 in a boundary group
+    UnionFind merged;                 // local groups merged by repairs
+    std::vector<Body> sub;            // repairs: the merged groups' bodies, compacted
+    std::vector<Edge> subedges;
+    std::vector<int> sub_of, substart, submembers, subgroups;
     std::vector<double> bound, fstate, wstate, fexc, lexc;
     std::vector<Edge> wedges;         // local window edges
     std::vector<char> fjoined, ljoined;
@@ -143,9 +147,12 @@ namespace Collide {
                           const std::vector<ForeignNode> &foreign, const Params &p,
                           double t1, CollisionBackend &backend, Exchange &ex, Tally &tb,
                           long &largest, long &ngroups, long &nbound);
-    bool check_window(std::vector<Body> &bodies, const std::vector<Edge> &edges,
-                      const std::vector<ForeignEdge> &fedges,
-                      const std::vector<ForeignNode> &foreign, double t1, Exchange &ex);
+    void excursions(std::vector<Body> &bodies, double t1);
+    long repair_local(std::vector<Body> &bodies, const std::vector<Edge> &edges, const Params &p,
+                      double t1, CollisionBackend &backend, long events_before, long &repairs);
+    long join_missed_boundary(std::vector<Body> &bodies, const std::vector<Edge> &edges,
+                              const std::vector<ForeignEdge> &fedges,
+                              const std::vector<ForeignNode> &foreign, Exchange &ex);
   };
 
 }    // namespace Collide
