@@ -34,6 +34,7 @@ class FixHardSphere : public Fix {
   int setmask() override;
   void init() override;
   void setup(int) override;
+  void post_run() override;
   void post_integrate() override;
   double compute_vector(int) override;
 
@@ -90,10 +91,17 @@ class FixHardSphere : public Fix {
   double t_search;        // seconds spent in the candidate search, in total
   double t_resolve;       // seconds spent resolving, in total
   double n_repair;        // groups merged and resolved again after a missed contact, in total
+  struct RunSummary {     // this run, for the line post_run() logs
+    bigint steps = 0;
+    double pairs = 0.0, events = 0.0, largest = 0.0, windows = 0.0, groups = 0.0;
+    double boundary = 0.0, gathers = 0.0, repairs = 0.0, redos = 0.0;
+    double t_search = 0.0, t_resolve = 0.0;
+  } run_sum;
 
   // --- per-step work ----------------------------------------------------------------------
-  // Forwarded per atom: owner's x (3), v (3), radius, owner rank, owner's local index.
-  static constexpr int NFWD = 9;
+  // Forwarded per atom: owner's x (3), v (3), radius, owner rank, owner's local index, the
+  // atom's displacement bound for the step (pairs are candidates within the sum of bounds).
+  static constexpr int NFWD = 10;
   std::vector<double> gdata;    // forwarded per-atom data, NFWD per owned and ghost atom
   std::vector<int> body_of;     // local atom -> body index, -1 when none
   std::vector<HSGPU::Collide::Body> bodies;
@@ -108,8 +116,12 @@ class FixHardSphere : public Fix {
   std::vector<int> foreign_ghost;    // foreign node -> one ghost index of it
   std::vector<HSGPU::Collide::ForeignEdge> efedges;
   std::vector<HSGPU::Collide::ForeignNode> fnodes;
-  std::vector<double> spos, srad;    // the candidate search's points
-  std::vector<int> sidx, spairs;
+  std::vector<double> spos, srad, sraw, sbound;    // the candidate search's points
+  std::vector<double> sboost;    // per owned atom: a bound raised by a step's check
+  std::vector<double> bexc, fexc;    // per body / foreign node: excursion in the step
+  std::vector<tagint> sid;
+  std::vector<int> sidx, sbody, snode, spairs;
+  std::vector<double> sreach;
   HSGPU::Collide::CellSearch search;
   HSGPU::Collide::WindowDriver driver;
   HSGPU::Collide::WindowSettings wsettings;
@@ -131,17 +143,18 @@ class FixHardSphere : public Fix {
   void parse(int narg, char **arg);
   double current_tc() const;
   HSGPU::Collide::Params step_params() const;
-  void forward_state();
+  void forward_state(double drift_dt);
   double step_budget(double &vmax);
-  int build(double D, double drift_dt, bool collect_pushes);
+  int build(double drift_dt, bool collect_pushes);
   void report_overlap(int npush);
-  void prepare(double D, double drift_dt);
+  void prepare(double drift_dt);
+  bool step_exact();
   void classify();
   void gather_boundary();
   void resolve(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all, double &worst);
   void sum_tallies(const HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
-  void step_serial(double D, HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
-  void step_windows(double D, HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
+  void step_serial(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
+  void step_windows(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   void apply_results(double dt);
 
   friend class LammpsExchange;

@@ -26,6 +26,7 @@
 #include "force.h"
 #include "group.h"
 #include "update.h"
+#include "utils.h"
 
 #include "core/collision_step.h"
 #include "lmp_compat.h"
@@ -73,10 +74,14 @@ Params FixHardSphere::step_params() const
   return p;
 }
 
-void FixHardSphere::forward_state()
+/* The owners' state to the ghosts, with each atom's displacement bound for the step: twice
+   its drift over the step (or what a failed check of this step raised it to), at most the
+   reach the ghosts cover. */
+void FixHardSphere::forward_state(double drift_dt)
 {
   const int nlocal = atom->nlocal;
   if (gdata.size() < (size_t) NFWD * atom->nmax) gdata.resize((size_t) NFWD * atom->nmax);
+  if (sboost.size() < (size_t) nlocal) sboost.resize(nlocal, 0.0);
   double **x = atom->x, **v = atom->v;
   const double *radius = atom->radius;
   for (int i = 0; i < nlocal; ++i) {
@@ -88,6 +93,8 @@ void FixHardSphere::forward_state()
     g[6] = radius[i];
     g[7] = comm->me;
     g[8] = i;
+    const double speed = std::sqrt(v[i][0] * v[i][0] + v[i][1] * v[i][1] + v[i][2] * v[i][2]);
+    g[9] = std::min(std::max(2.0 * speed * drift_dt, sboost[i]), reach);
   }
   HsgpuCompat::forward_comm(comm, this);
 }
@@ -132,7 +139,7 @@ double FixHardSphere::step_budget(double &vmax)
 
 /* Bodies, foreign nodes, edges; overlaps are counted (and, with overlap push, the pushes
    that separate them collected in push_dx).  Returns the number of overlaps found here. */
-int FixHardSphere::build(double D, double drift_dt, bool collect_pushes)
+int FixHardSphere::build(double drift_dt, bool collect_pushes)
 {
   const int nlocal = atom->nlocal, nall = nlocal + atom->nghost;
   const int me = comm->me;
@@ -191,83 +198,89 @@ int FixHardSphere::build(double D, double drift_dt, bool collect_pushes)
   // Candidate pairs from the cell search over owned and ghost atoms of the group, at their
   // start points; ghosts at their owners' start points moved to the ghost's periodic image
   // (the stale ghost coordinates only tell which image).
+  // Per search point: its start point (raw owner coordinates, for the canonical nearest-image
+  // separation), radius, ID, body (own atom or an image of one) or foreign node.
   spos.clear();
   srad.clear();
+  sraw.clear();
+  sbound.clear();
+  sid.clear();
+  sbody.clear();
+  snode.clear();
   sidx.clear();
-  for (const Body &b : bodies) {
-    for (int d = 0; d < 3; ++d) spos.push_back(b.X0[d]);
-    srad.push_back(b.radius);
-    sidx.push_back(b.owner);
+  for (int b = 0; b < (int) bodies.size(); ++b) {
+    const Body &bd = bodies[b];
+    for (int d = 0; d < 3; ++d) {
+      spos.push_back(bd.X0[d]);
+      sraw.push_back(bd.X0[d]);
+    }
+    srad.push_back(bd.radius);
+    sbound.push_back(gdata[(size_t) NFWD * bd.owner + 9]);
+    sid.push_back((tagint) bd.id);
+    sbody.push_back(b);
+    snode.push_back(-1);
+    sidx.push_back(bd.owner);
   }
   const int nsearch = (int) bodies.size();
   for (int j = nlocal; j < nall; ++j) {
     if (!(mask[j] & groupbit)) continue;
     const double *g = &gdata[(size_t) NFWD * j];
+    const int bj = (int) g[7] == me ? body_of[(int) g[8]] : -1;
+    const int node = bj < 0 ? foreign_of[j - nlocal] : -1;
+    if (bj < 0 && node < 0) continue;
     for (int d = 0; d < 3; ++d) {
-      double p = g[d] - g[3 + d] * drift_dt;
-      if (periodic[d]) p += std::nearbyint((x[j][d] - p) / prd[d]) * prd[d];
-      spos.push_back(p);
+      const double p = g[d] - g[3 + d] * drift_dt;
+      sraw.push_back(p);
+      spos.push_back(periodic[d] ? p + std::nearbyint((x[j][d] - p) / prd[d]) * prd[d] : p);
     }
     srad.push_back(g[6]);
+    sbound.push_back(g[9]);
+    sid.push_back(tag[j]);
+    sbody.push_back(bj);
+    snode.push_back(node);
     sidx.push_back(j);
   }
+  // Candidates: pairs within their radii plus their bounds (the search's radii are r + bound,
+  // with a margin for the search's own rounding; the exact test follows).
   spairs.clear();
-  const double extra = 2.0 * D * (1.0 + 1e-9) + 1e-9 * rmax;
-  search.find(spos.data(), srad.data(), (int) sidx.size(), nsearch, rmax, extra, spairs);
+  {
+    const size_t np = sid.size();
+    sreach.resize(np);
+    double rm = 0.0;
+    for (size_t k = 0; k < np; ++k) {
+      sreach[k] = srad[k] + sbound[k];
+      rm = std::max(rm, sreach[k]);
+    }
+    search.find(spos.data(), sreach.data(), (int) np, nsearch, rm, 1e-9 * rm, spairs);
+  }
 
   edges.clear();
   fedges.clear();
   iedges.clear();
   for (size_t k = 0; k < spairs.size(); k += 2) {
-    const int i = sidx[spairs[k]], j = sidx[spairs[k + 1]];
-    if (tag[j] == tag[i]) continue;    // an atom and its own image
-    const int bi = body_of[i];
-    int bj = -1, node = -1;
-    bool image = false;    // j is a periodic image of an atom of mine
-    double X0j[3], rj;
-    if (j < nlocal) {
-      bj = body_of[j];
-    } else {
-      const double *g = &gdata[(size_t) NFWD * j];
-      if ((int) g[7] == me) {
-        bj = body_of[(int) g[8]];
-        image = true;
-      } else {
-        node = foreign_of[j - nlocal];
-      }
-      if (bj < 0 && node < 0) continue;
-    }
-    if (bj >= 0) {
-      if (bj == bi) continue;
-      for (int d = 0; d < 3; ++d) X0j[d] = bodies[bj].X0[d];
-      rj = bodies[bj].radius;
-    } else {
-      const double *g = &gdata[(size_t) NFWD * j];
-      for (int d = 0; d < 3; ++d) X0j[d] = g[d] - g[3 + d] * drift_dt;
-      rj = g[6];
-    }
+    const int a = spairs[k], c = spairs[k + 1];    // a is one of my bodies
+    const int bi = sbody[a], bj = sbody[c], node = snode[c];
+    if (sid[a] == sid[c]) continue;    // an atom and its own image
+    // Canonical orientation: the lower ID first, its separation computed that way round.
+    const bool swap = sid[c] < sid[a];
+    const int lo = swap ? c : a, hi = swap ? a : c;
     double r[3], sh[3];
-    HSGPU::Collide::nearest_image_separation(bodies[bi].X0, X0j, prd, periodic, r, sh);
-    const double range = bodies[bi].radius + rj + 2.0 * D;
+    HSGPU::Collide::nearest_image_separation(&sraw[3 * (size_t) lo], &sraw[3 * (size_t) hi], prd,
+                                             periodic, r, sh);
+    const double range = (srad[lo] + srad[hi]) + (sbound[lo] + sbound[hi]);
     if (r[0] * r[0] + r[1] * r[1] + r[2] * r[2] > range * range) continue;
     if (bj >= 0) {
-      // Lower ID first, its separation computed in that orientation.
       Edge e;
-      e.i = bi;
-      e.j = bj;
-      if (bodies[bj].id < bodies[bi].id) {
-        std::swap(e.i, e.j);
-        HSGPU::Collide::nearest_image_separation(bodies[e.i].X0, bodies[e.j].X0, prd, periodic,
-                                                 r, sh);
-      }
+      e.i = swap ? bj : bi;
+      e.j = swap ? bi : bj;
       for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
-      (image ? iedges : edges).push_back(e);
+      (c >= nsearch ? iedges : edges).push_back(e);
     } else {
       ForeignEdge fe;
       fe.body = bi;
       fe.node = node;
-      fe.ghost = j;
-      for (int d = 0; d < 3; ++d) fe.shift[d] = sh[d];
+      fe.ghost = sidx[c];
+      for (int d = 0; d < 3; ++d) fe.shift[d] = swap ? -sh[d] : sh[d];
       fedges.push_back(fe);
     }
   }
@@ -392,11 +405,11 @@ void FixHardSphere::report_overlap(int npush)
 
 /* Checks for overlaps at the start points (x - v drift_dt); pushes them apart or stops.
    Leaves bodies and edges built for budget D. */
-void FixHardSphere::prepare(double D, double drift_dt)
+void FixHardSphere::prepare(double drift_dt)
 {
   for (int pass = 0;; ++pass) {
-    forward_state();
-    const int found = build(D, drift_dt, overlap_push && pass < MAXPUSH);
+    forward_state(drift_dt);
+    const int found = build(drift_dt, overlap_push && pass < MAXPUSH);
     int any = 0;
     MPI_Allreduce(&found, &any, 1, MPI_INT, MPI_SUM, world);
     if (!any) return;
@@ -625,13 +638,87 @@ void FixHardSphere::setup(int)
 {
   for (int k = 0; k < 6; ++k) virial[k] = 0.0;
   n_step = 0.0;
+  run_sum = RunSummary();
+  run_sum.t_search = -t_search;
+  run_sum.t_resolve = -t_resolve;
+  run_sum.repairs = -n_repair;
+  run_sum.redos = -n_redo;
+  sboost.assign(atom->nlocal, 0.0);
   // Overlaps in the starting configuration (or made since the last run).
-  prepare(0.0, 0.0);
+  prepare(0.0);
+}
+
+/* After the resolution: could a pair that was not a candidate have touched?  Only if a body
+   of it moved further than its bound and the two moved at least the pair's gap (at their
+   start points) together.  The bodies of such pairs get their bound raised to twice their
+   excursion, and the step is redone.  Returns true when the step is exact.  An atom that moved
+   further than the reach the ghost atoms cover stops the run. */
+bool FixHardSphere::step_exact()
+{
+  const int nb = (int) bodies.size();
+  bexc.assign(nb, 0.0);
+  if (serial_order) {
+    for (int b = 0; b < nb; ++b)
+      if (lindex[b] >= 0) bexc[b] = std::sqrt(lbodies[lindex[b]].exc2);
+    for (size_t k = 0; k < gbodies.size(); ++k)
+      if (gmine[k] >= 0) bexc[gmine[k]] = std::sqrt(gbodies[k].exc2);
+  } else {
+    for (int b = 0; b < nb; ++b) bexc[b] = std::sqrt(bodies[b].exc2);
+  }
+  double loc[2] = {0.0, 0.0}, glob[2];
+  for (int b = 0; b < nb; ++b) {
+    loc[0] = std::max(loc[0], bexc[b]);
+    if (bexc[b] > sbound[b]) loc[1] = 1.0;
+  }
+  MPI_Allreduce(loc, glob, 2, MPI_DOUBLE, MPI_MAX, world);
+  if (glob[0] > reach)
+    error->all(FLERR,
+               "Fix hardsphere: collisions sent an atom {:.6g} in one step, more than the reach "
+               "{:.6g} its ghost atoms cover: reduce the timestep, or raise the fix's 'reach' "
+               "keyword",
+               glob[0], reach);
+  if (glob[1] == 0.0) return true;
+  if (comm->nprocs > 1) exchange->to_foreign(bexc, 1, fexc);
+
+  const int periodic[3] = {domain->xperiodic, domain->yperiodic, domain->zperiodic};
+  const double *prd = domain->prd;
+  const double width = search.cell_width();
+  int missed = 0;
+  std::vector<int> near;
+  for (int b = 0; b < nb; ++b) {
+    if (!(bexc[b] > sbound[b])) continue;
+    const int owner = bodies[b].owner;
+    if (!(bexc[b] + glob[0] + 2.0 * rmax < width)) {
+      // Its partners may lie beyond the cells around it: raise its bound and search again.
+      sboost[owner] = std::max(sboost[owner], 2.0 * bexc[b]);
+      missed = 1;
+      continue;
+    }
+    near.clear();
+    search.neighbors(b, near);
+    for (int c : near) {
+      if (sid[c] == sid[b]) continue;
+      const double ec = sbody[c] >= 0 ? bexc[sbody[c]] : fexc[snode[c]];
+      const int lo = sid[c] < sid[b] ? c : b, hi = lo == c ? b : c;
+      double r[3], sh[3];
+      HSGPU::Collide::nearest_image_separation(&sraw[3 * (size_t) lo], &sraw[3 * (size_t) hi],
+                                               prd, periodic, r, sh);
+      const double dist = std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+      const double contact = srad[lo] + srad[hi];
+      if (dist <= contact + (sbound[lo] + sbound[hi])) continue;    // a candidate
+      if (dist - contact > bexc[b] + ec + OVERLAP_TOL * contact) continue;
+      sboost[owner] = std::max(sboost[owner], 2.0 * bexc[b]);
+      missed = 1;
+    }
+  }
+  int any = 0;
+  MPI_Allreduce(&missed, &any, 1, MPI_INT, MPI_MAX, world);
+  return any == 0;
 }
 
 /* The seed paper's order: all of this rank's bodies (on several ranks all bodies, gathered)
    with one global event loop. */
-void FixHardSphere::step_serial(double D, Tally &mine, Tally &all)
+void FixHardSphere::step_serial(Tally &mine, Tally &all)
 {
   const double dt = update->dt;
   classify();
@@ -639,19 +726,12 @@ void FixHardSphere::step_serial(double D, Tally &mine, Tally &all)
   while (true) {
     const double t0 = MPI_Wtime();
     resolve(mine, all, worst);
+    const bool exact = all.capped || step_exact();
     t_resolve += MPI_Wtime() - t0;
-    if (all.capped || worst <= D) break;
-    // Someone was pushed further than the budget: the edge graph may have missed a pair.
-    if (worst > reach)
-      error->all(FLERR,
-                 "Fix hardsphere: collisions sent an atom {:.6g} in one step, more than the "
-                 "reach {:.6g} its ghost atoms cover: reduce the timestep, or raise the fix's "
-                 "'reach' keyword",
-                 worst, reach);
-    D = std::min(2.0 * worst, reach);
+    if (exact) break;
     n_redo += 1.0;
-    forward_state();
-    build(D, dt, false);
+    forward_state(dt);
+    build(dt, false);
     classify();
   }
   last_largest = (double) group->count(igroup);
@@ -662,7 +742,7 @@ void FixHardSphere::step_serial(double D, Tally &mine, Tally &all)
 }
 
 /* Time windows and groups (engine/window_driver.h). */
-void FixHardSphere::step_windows(double D, Tally &mine, Tally &all)
+void FixHardSphere::step_windows(Tally &mine, Tally &all)
 {
   const double dt = update->dt;
   const Params p = step_params();
@@ -670,31 +750,18 @@ void FixHardSphere::step_windows(double D, Tally &mine, Tally &all)
   while (true) {
     const double t0 = MPI_Wtime();
     driver.run(bodies, edges, efedges, fnodes, p, wsettings, *backend, *exchange, mine, stats);
-    double w = 0.0, xe[3], ve[3];
-    for (Body &b : bodies) {
-      HSGPU::Collide::end_of_step(b, dt, xe, ve);
-      w = std::max(w, b.exc2);
-    }
-    w = std::sqrt(w);
-    double worst = 0.0;
-    MPI_Allreduce(&w, &worst, 1, MPI_DOUBLE, MPI_MAX, world);
-    t_resolve += MPI_Wtime() - t0;
+    double xe[3], ve[3];
+    for (Body &b : bodies) HSGPU::Collide::end_of_step(b, dt, xe, ve);
     sum_tallies(mine, all);
     int capped = mine.capped;
     MPI_Allreduce(&capped, &all.capped, 1, MPI_INT, MPI_MAX, world);
     n_repair += (double) stats.repairs;
-    if (all.capped || worst <= D) break;
-    // Someone was pushed further than the step's budget: a candidate may be missing.
+    const bool exact = all.capped || step_exact();
+    t_resolve += MPI_Wtime() - t0;
+    if (exact) break;
     n_redo += 1.0;
-    if (worst > reach)
-      error->all(FLERR,
-                 "Fix hardsphere: collisions sent an atom {:.6g} in one step, more than the "
-                 "reach {:.6g} its ghost atoms cover: reduce the timestep, or raise the fix's "
-                 "'reach' keyword",
-                 worst, reach);
-    D = std::min(2.0 * worst, reach);
-    forward_state();
-    build(D, dt, false);
+    forward_state(dt);
+    build(dt, false);
   }
   last_largest = (double) stats.largest_group;
   last_groups = (double) stats.groups;
@@ -707,13 +774,14 @@ void FixHardSphere::post_integrate()
 {
   const double dt = update->dt;
   double vmax;
-  const double D = step_budget(vmax);
-  prepare(D, dt);
+  step_budget(vmax);
+  sboost.assign(atom->nlocal, 0.0);
+  prepare(dt);
   Tally mine, all;
   if (serial_order)
-    step_serial(D, mine, all);
+    step_serial(mine, all);
   else
-    step_windows(D, mine, all);
+    step_windows(mine, all);
   if (all.capped) {
     const std::string msg = fmt::format(
         "Fix hardsphere: step {} needed more than maxevents = {} events ({} carried out); {}",
@@ -737,4 +805,29 @@ void FixHardSphere::post_integrate()
   max_events = std::max(max_events, (double) all.events);
   const double scale = 1.0 / (dt * force->ftm2v);
   for (int k = 0; k < 6; ++k) virial[k] = mine.virial[k] * scale;
+
+  run_sum.steps++;
+  run_sum.pairs += (double) all.pair;
+  run_sum.events += (double) all.events;
+  run_sum.largest = std::max(run_sum.largest, last_largest);
+  run_sum.windows += last_windows;
+  run_sum.groups += last_groups;
+  run_sum.boundary += last_boundary;
+  run_sum.gathers += last_gathers;
+}
+
+/* One line per run in the log: what the resolution did, for a user asking why a run is slow. */
+void FixHardSphere::post_run()
+{
+  const RunSummary &r = run_sum;
+  if (r.steps == 0 || comm->me != 0) return;
+  const double n = (double) r.steps;
+  utils::logmesg(lmp,
+                 "Fix hardsphere ({} order): {} steps, {:.6g} collisions and {:.6g} events per "
+                 "step; largest group {:.0f} atoms, {:.3g} windows and {:.4g} groups per step, "
+                 "{:.0f} repairs, {:.0f} steps redone; {:.4g} atoms per step in groups spanning "
+                 "ranks, {:.3g} gathers per step; search {:.4g} s, resolve {:.4g} s\n",
+                 serial_order ? "serial" : "parallel", r.steps, r.pairs / n, r.events / n,
+                 r.largest, r.windows / n, r.groups / n, n_repair + r.repairs, n_redo + r.redos,
+                 r.boundary / n, r.gathers / n, t_search + r.t_search, t_resolve + r.t_resolve);
 }

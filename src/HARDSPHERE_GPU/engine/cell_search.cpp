@@ -35,6 +35,7 @@ namespace Collide {
       if (total <= limit) break;
       width *= 1.26;
     }
+    width_used = width;
     double inv[3];
     for (int d = 0; d < 3; ++d) inv[d] = ncell[d] / std::max(len[d], 1e-300);
     auto coord = [&](int i, int d) {
@@ -62,28 +63,48 @@ namespace Collide {
         sorted[(size_t) 4 * k + 3] = rad[i];
       }
     }
-    for (int i = 0; i < nsearch; ++i) {
-      const long ci[3] = {coord(i, 0), coord(i, 1), coord(i, 2)};
-      const double xi[3] = {x[3 * i], x[3 * i + 1], x[3 * i + 2]};
-      const double ri = rad[i] + extra;
-      for (long cz = std::max(0L, ci[2] - 1); cz <= std::min(ncell[2] - 1, ci[2] + 1); ++cz)
-        for (long cy = std::max(0L, ci[1] - 1); cy <= std::min(ncell[1] - 1, ci[1] + 1); ++cy) {
-          const long row = (cz * ncell[1] + cy) * ncell[0];
-          const int lo = start[row + std::max(0L, ci[0] - 1)];
-          const int hi = start[row + std::min(ncell[0] - 1, ci[0] + 1) + 1];
-          for (int k = lo; k < hi; ++k) {
-            const double *q = &sorted[(size_t) 4 * k];
-            const double dx = xi[0] - q[0], dy = xi[1] - q[1], dz = xi[2] - q[2];
-            const double range = ri + q[3];
-            if (dx * dx + dy * dy + dz * dz <= range * range) {
-              const int j = order[k];
-              if (j <= i) continue;
-              pairs.push_back(i);
-              pairs.push_back(j);
-            }
+    // Searched points visited cell by cell, so that neighbouring rows stay in cache.
+    for (long cz = 0; cz < ncell[2]; ++cz)
+      for (long cy = 0; cy < ncell[1]; ++cy)
+        for (long cx = 0; cx < ncell[0]; ++cx) {
+          const long c = (cz * ncell[1] + cy) * ncell[0] + cx;
+          for (int ki = start[c]; ki < start[c + 1]; ++ki) {
+            const int i = order[ki];
+            if (i >= nsearch) continue;
+            const double *pi = &sorted[(size_t) 4 * ki];
+            const double ri = pi[3] + extra;
+            for (long nz = std::max(0L, cz - 1); nz <= std::min(ncell[2] - 1, cz + 1); ++nz)
+              for (long ny = std::max(0L, cy - 1); ny <= std::min(ncell[1] - 1, cy + 1); ++ny) {
+                const long row = (nz * ncell[1] + ny) * ncell[0];
+                const int lo = start[row + std::max(0L, cx - 1)];
+                const int hi = start[row + std::min(ncell[0] - 1, cx + 1) + 1];
+                for (int k = lo; k < hi; ++k) {
+                  const double *q = &sorted[(size_t) 4 * k];
+                  const double dx = pi[0] - q[0], dy = pi[1] - q[1], dz = pi[2] - q[2];
+                  const double range = ri + q[3];
+                  if (dx * dx + dy * dy + dz * dz <= range * range) {
+                    const int j = order[k];
+                    if (j <= i) continue;
+                    pairs.push_back(i);
+                    pairs.push_back(j);
+                  }
+                }
+              }
           }
         }
-    }
+  }
+
+  void CellSearch::neighbors(int i, std::vector<int> &out) const
+  {
+    const long c = cell_of[i];
+    const long cx = c % ncell[0], cy = (c / ncell[0]) % ncell[1], cz = c / (ncell[0] * ncell[1]);
+    for (long nz = std::max(0L, cz - 1); nz <= std::min(ncell[2] - 1, cz + 1); ++nz)
+      for (long ny = std::max(0L, cy - 1); ny <= std::min(ncell[1] - 1, cy + 1); ++ny) {
+        const long row = (nz * ncell[1] + ny) * ncell[0];
+        const int lo = start[row + std::max(0L, cx - 1)];
+        const int hi = start[row + std::min(ncell[0] - 1, cx + 1) + 1];
+        for (int k = lo; k < hi; ++k) out.push_back(order[k]);
+      }
   }
 
 }    // namespace Collide

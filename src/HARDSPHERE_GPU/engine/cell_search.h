@@ -23,9 +23,15 @@ namespace Collide {
 
     /// Cells of the last call (for reports).
     long cells() const { return ncell[0] * ncell[1] * ncell[2]; }
+    /// Width of the last call's cells: every point within this distance of point i is among
+    /// neighbors(i).
+    double cell_width() const { return width_used; }
+    /// Appends to `out` the points of the last call in the 27 cells around point i's.
+    void neighbors(int i, std::vector<int> &out) const;
 
    private:
     long ncell[3] = {1, 1, 1};
+    double width_used = 0.0;
     std::vector<int> cell_of, start, order;
     std::vector<double> sorted;
   };

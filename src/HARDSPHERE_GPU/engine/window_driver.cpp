@@ -500,19 +500,28 @@ namespace Collide {
         t1 = (k + 1 >= s.nwindows) ? dt : dt * (double) (k + 1) / (double) s.nwindows;
         largest = window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex);
       } else {
+        // Halve until the largest group is within the target; if no length down to
+        // dt * MIN_WINDOW gets there (a pile: touching bodies stay joined however short the
+        // window), take the length whose largest group was smallest (the longest of equals).
+        // After such a window only one halving is tried, until a window meets the target.
         t1 = t0 + guess;
         if (t1 > dt * (1.0 - 1e-9)) t1 = dt;
         largest = window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex);
-        while (largest > target && t1 - t0 > dt * MIN_WINDOW) {
-          const double half = t0 + 0.5 * (t1 - t0);
-          const long l2 = window_edges(bodies, edges, fedges, foreign, t0, half, s, ex);
-          if ((double) l2 > 0.75 * (double) largest) {
-            // Halving no longer pays (a pile: touching bodies stay joined): keep the longer.
-            window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex);
-            break;
+        double best_t1 = t1;
+        long best = largest;
+        int tries = stuck ? 1 : 64;
+        while (largest > target && t1 - t0 > dt * MIN_WINDOW && tries-- > 0) {
+          t1 = t0 + 0.5 * (t1 - t0);
+          largest = window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex);
+          if (largest < best) {
+            best = largest;
+            best_t1 = t1;
           }
-          t1 = half;
-          largest = l2;
+        }
+        stuck = largest > target;
+        if (stuck && t1 != best_t1) {
+          t1 = best_t1;
+          largest = window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex);
         }
         // The next window starts at twice this one (the step's last window, cut short by
         // what was left, says nothing about the length that pays).

@@ -26,8 +26,10 @@
    earliest-event loop (order serial), for any choice of windows.
 
    Adaptive windows: a window starts at twice the previous one's length (at most what is left
-   of the step) and is halved while its largest group exceeds the target and halving still
-   shrinks it by a quarter, down to dt / 64.
+   of the step) and is halved while its largest group exceeds the target, down to dt / 64; if
+   none gets there (a pile, whose touching bodies stay joined however short the window), the
+   length with the smallest largest group is taken, and the next windows try one halving only
+   until one meets the target again.
 
    No LAMMPS, MPI or CUDA here: communication goes through the Exchange interface. */
 #ifndef HSGPU_ENGINE_WINDOW_DRIVER_H
@@ -117,6 +119,7 @@ namespace Collide {
 
    private:
     double last_delta = 0.0;          // length of the last window, for the next one's guess
+    bool stuck = false;               // the last window could not meet the target
     // per window
     std::vector<Body> snap;           // the bodies at the window start
     std::vector<Tally> gtally;        // tally of each local group
