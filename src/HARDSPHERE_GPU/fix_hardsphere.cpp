@@ -61,7 +61,7 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
     reach(0.0), list_cut(0.0), maxevents(0), tlast(nullptr), n_step(0.0), n_total(0.0),
     n_wall(0.0), ke_total(0.0), max_events(0.0), events_total(0.0), n_redo(0.0),
     last_largest(0.0), last_groups(0.0), last_windows(0.0), last_boundary(0.0), last_gathers(0.0), t_search(0.0),
-    t_resolve(0.0), n_repair(0.0), exchange(nullptr), fwd_nval(0), n_push(0.0)
+    t_resolve(0.0), n_repair(0.0), bound_floor(0.0), exchange(nullptr), fwd_nval(0), n_push(0.0)
 {
   for (double &o : ovl) o = 0.0;
   vector_flag = 1;

@@ -118,6 +118,7 @@ class FixHardSphere : public Fix {
   std::vector<HSGPU::Collide::ForeignNode> fnodes;
   std::vector<double> spos, srad, sraw, sbound;    // the candidate search's points
   std::vector<double> sboost;    // per owned atom: a bound raised by a step's check
+  double bound_floor;            // least step bound of any atom: half the fastest drift
   std::vector<double> bexc, fexc;    // per body / foreign node: excursion in the step
   std::vector<tagint> sid;
   std::vector<int> sidx, sbody, snode, spairs;

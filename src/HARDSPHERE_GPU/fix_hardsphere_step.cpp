@@ -75,8 +75,8 @@ Params FixHardSphere::step_params() const
 }
 
 /* The owners' state to the ghosts, with each atom's displacement bound for the step: twice
-   its drift over the step (or what a failed check of this step raised it to), at most the
-   reach the ghosts cover. */
+   its drift over the step, at least bound_floor (or what a failed check of this step raised
+   it to), at most the reach the ghosts cover. */
 void FixHardSphere::forward_state(double drift_dt)
 {
   const int nlocal = atom->nlocal;
@@ -94,7 +94,7 @@ void FixHardSphere::forward_state(double drift_dt)
     g[7] = comm->me;
     g[8] = i;
     const double speed = std::sqrt(v[i][0] * v[i][0] + v[i][1] * v[i][1] + v[i][2] * v[i][2]);
-    g[9] = std::min(std::max(2.0 * speed * drift_dt, sboost[i]), reach);
+    g[9] = std::min(std::max(std::max(2.0 * speed * drift_dt, bound_floor), sboost[i]), reach);
   }
   HsgpuCompat::forward_comm(comm, this);
 }
@@ -134,6 +134,10 @@ double FixHardSphere::step_budget(double &vmax)
                "more than the reach {:.6g} its ghost atoms cover: reduce the timestep, or raise "
                "the fix's 'reach' keyword",
                least, vmax, dt, reach);
+  // Every atom's step bound is at least half the fastest drift: an atom at rest that is hit
+  // moves about as far as what hit it, and a bound of zero would make the step's check fail
+  // (and the step be redone) each time.
+  bound_floor = 0.5 * least;
   return std::min(2.0 * least + 1e-12 * rmax, reach);
 }
 
@@ -644,6 +648,7 @@ void FixHardSphere::setup(int)
   run_sum.repairs = -n_repair;
   run_sum.redos = -n_redo;
   sboost.assign(atom->nlocal, 0.0);
+  bound_floor = 0.0;
   // Overlaps in the starting configuration (or made since the last run).
   prepare(0.0);
 }

@@ -14,7 +14,9 @@ namespace Collide {
     /// Relative margin on contact distances for round-off in the join and check tests.
     constexpr double MARGIN = 1e-9;
     /// Shortest adaptive window, as a fraction of dt.
-    constexpr double MIN_WINDOW = 1.0 / 64.0;
+    constexpr double MIN_WINDOW = 1.0 / 16.0;
+    /// Steps after a window that could not meet the target before all lengths are tried again.
+    constexpr int STUCK_RETRY = 16;
     /// Doubles per body in the boundary exchange (pack_body), and per partner (id, shift).
     constexpr int NBODY = 29;
     constexpr int NPARTNER = 4;
@@ -126,7 +128,7 @@ namespace Collide {
       drift_position(bd, t0, bd.w0);
       bd.wexc2 = 0.0;
       const double speed = std::sqrt(Contact::dot3(bd.v, bd.v));
-      bound[b] = s.bound_factor * speed * delta;
+      bound[b] = std::max(s.bound_factor * speed, speed_floor) * delta;
       for (int d = 0; d < 3; ++d) wstate[(size_t) 4 * b + d] = bd.w0[d];
       wstate[(size_t) 4 * b + 3] = bound[b];
     }
@@ -487,7 +489,14 @@ namespace Collide {
     const int nb = (int) bodies.size();
     long counts[1] = {(long) nb};
     ex.sum(counts, 1);
-    const long target = s.target_group > 0 ? s.target_group : std::max(128L, counts[0] / 512);
+    const long target = s.target_group > 0 ? s.target_group : std::max(256L, counts[0] / 128);
+    // Every body's window bound assumes at least a quarter of the fastest drift speed: a body
+    // at rest that is hit moves about as fast as what hit it, and a bound of zero would make
+    // every such hit a repair (in a settled pile, of the whole pile).
+    double vmax = 0.0;
+    for (const Body &b : bodies) vmax = std::max(vmax, Contact::dot3(b.v, b.v));
+    ex.max(&vmax, 1);
+    speed_floor = s.floor_fraction * std::sqrt(vmax);
     stats = WindowStats();
     Tally tloc, tbnd;
     double t0 = 0.0;
@@ -500,28 +509,38 @@ namespace Collide {
         t1 = (k + 1 >= s.nwindows) ? dt : dt * (double) (k + 1) / (double) s.nwindows;
         largest = window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex);
       } else {
-        // Halve until the largest group is within the target; if no length down to
-        // dt * MIN_WINDOW gets there (a pile: touching bodies stay joined however short the
-        // window), take the length whose largest group was smallest (the longest of equals).
-        // After such a window only one halving is tried, until a window meets the target.
+        // Halve until the largest group is within the target, down to dt * MIN_WINDOW (dt / 16), and
+        // take the longest length whose largest group is within 5/4 of the smallest seen: in
+        // a pile, whose touching bodies stay joined however short the window, that is the
+        // longest tried.  After such a window ("stuck") the rest of the step is one window,
+        // and the next step tries its full length and one halving only, exploring all lengths
+        // again every STUCK_RETRY steps.
         t1 = t0 + guess;
         if (t1 > dt * (1.0 - 1e-9)) t1 = dt;
+        if (stuck_left > 0 && k > 0) t1 = dt;
         largest = window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex);
-        double best_t1 = t1;
-        long best = largest;
-        int tries = stuck ? 1 : 64;
-        while (largest > target && t1 - t0 > dt * MIN_WINDOW && tries-- > 0) {
-          t1 = t0 + 0.5 * (t1 - t0);
-          largest = window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex);
-          if (largest < best) {
-            best = largest;
-            best_t1 = t1;
+        if (!(stuck_left > 0 && k > 0)) {
+          tried.clear();
+          tried.emplace_back(t1, largest);
+          int halvings = stuck_left > 0 ? 1 : 64;
+          while (largest > target && t1 - t0 > dt * MIN_WINDOW && halvings-- > 0) {
+            t1 = t0 + 0.5 * (t1 - t0);
+            largest = window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex);
+            tried.emplace_back(t1, largest);
           }
-        }
-        stuck = largest > target;
-        if (stuck && t1 != best_t1) {
-          t1 = best_t1;
-          largest = window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex);
+          if (largest > target) {
+            long least = largest;
+            for (const auto &tl : tried) least = std::min(least, tl.second);
+            size_t pick = 0;
+            while (4 * tried[pick].second > 5 * least) ++pick;
+            if (pick + 1 < tried.size()) {
+              t1 = tried[pick].first;
+              largest = window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex);
+            }
+            stuck_left = stuck_left > 0 ? stuck_left - 1 : STUCK_RETRY;
+          } else {
+            stuck_left = 0;
+          }
         }
         // The next window starts at twice this one (the step's last window, cut short by
         // what was left, says nothing about the length that pays).

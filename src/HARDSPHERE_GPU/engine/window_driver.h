@@ -6,8 +6,8 @@
    budget afterwards) and the foreign nodes: bodies owned by other ranks that are candidates
    of a local body.  The driver cuts [0, dt) into windows [t0, t1) and, in each:
 
-   1. gives every body a bound d = k |v| (t1 - t0) on how far its drift line will move in the
-      window (k = WindowSettings::bound_factor; raised for bodies that broke it before);
+   1. gives every body a bound d = max(k |v|, f vmax) (t1 - t0) on how far its drift line will
+      move in the window (k, f: WindowSettings; vmax the fastest drift speed of the step);
    2. joins the candidate pairs whose gap at t0 is within d_i + d_j: the window's edges;
    3. resolves each connected component (a "group") by itself with the backend: groups of
       local bodies here, groups that reach a foreign node ("boundary groups") gathered from
@@ -26,10 +26,10 @@
    earliest-event loop (order serial), for any choice of windows.
 
    Adaptive windows: a window starts at twice the previous one's length (at most what is left
-   of the step) and is halved while its largest group exceeds the target, down to dt / 64; if
+   of the step) and is halved while its largest group exceeds the target, down to dt / 16; if
    none gets there (a pile, whose touching bodies stay joined however short the window), the
-   length with the smallest largest group is taken, and the next windows try one halving only
-   until one meets the target again.
+   longest length within 5/4 of the smallest largest group is taken, the rest of the step is
+   one window, and the next steps try one halving only, all lengths every 16 steps.
 
    No LAMMPS, MPI or CUDA here: communication goes through the Exchange interface. */
 #ifndef HSGPU_ENGINE_WINDOW_DRIVER_H
@@ -39,6 +39,7 @@
 
 #include "core/event_order.h"
 
+#include <utility>
 #include <vector>
 
 namespace HSGPU {
@@ -94,8 +95,9 @@ namespace Collide {
 
   struct WindowSettings {
     int nwindows = 0;             // > 0: that many equal windows; 0: adaptive
-    double bound_factor = 1.5;    // k in d = k |v| (t1 - t0)
-    long target_group = 0;        // adaptive: largest group wanted; <= 0: max(128, N / 512)
+    double bound_factor = 1.5;      // k in d = max(k |v|, f vmax) (t1 - t0)
+    double floor_fraction = 0.25;   // f: the floor, as a fraction of the fastest drift speed
+    long target_group = 0;          // adaptive: largest group wanted; <= 0: max(256, N / 128)
   };
 
   /// What the last step did (global figures, the same on every rank).
@@ -119,7 +121,9 @@ namespace Collide {
 
    private:
     double last_delta = 0.0;          // length of the last window, for the next one's guess
-    bool stuck = false;               // the last window could not meet the target
+    double speed_floor = 0.0;         // f vmax of this step
+    int stuck_left = 0;               // > 0: a recent window could not meet the target
+    std::vector<std::pair<double, long>> tried;    // (window end, largest group) tried
     // per window
     std::vector<Body> snap;           // the bodies at the window start
     std::vector<Tally> gtally;        // tally of each local group
