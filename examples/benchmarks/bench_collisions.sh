@@ -31,6 +31,7 @@
 # together in one window in any step of the run (and in % of N); windows: per step; repairs:
 # groups merged and resolved again in the run; spanning: atoms per step in groups that span
 # ranks; gathers: per step.  All from the line fix hardsphere logs at the end of a run.
+# HSGPU_BENCH_ARGS (e.g. "-var dt 0.01") is passed to the seed configurations' runs.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
@@ -73,6 +74,8 @@ run() {
   else
     args=(-var N "$n" -var steps "$nsteps")
     [ "$order" = serial ] && args+=(-var order serial)
+    # shellcheck disable=SC2206
+    [ -n "${HSGPU_BENCH_ARGS:-}" ] && args+=($HSGPU_BENCH_ARGS)
   fi
   if ! "${launcher[@]}" "$lmp" -in "in.$config" -var plugin "$plug" "${args[@]}" -log "$log" \
       -echo none -screen none >/dev/null 2>&1; then

@@ -16,6 +16,7 @@
 #include "core/gravity_pair.h"
 #include "gpu/device_info.cuh"
 #include "gpu/gravity_engine.h"
+#include "gpu_device_choice.h"
 
 #include <cstdio>
 #include <cstdlib>
@@ -171,7 +172,8 @@ void PairGravity::init_style()
 }
 
 /* One CUDA device per rank: the one the user named, or the node-local rank modulo the
-   number of devices.  Without a usable device the CPU path runs, with a message. */
+   number of devices (gpu_device_choice.h).  Without a usable device the CPU path runs, with a
+   message. */
 void PairGravity::setup_gpu()
 {
   if (!gpu_requested) {
@@ -179,30 +181,12 @@ void PairGravity::setup_gpu()
     engine = nullptr;
     return;
   }
-  const int ndev = HSGPU::GPU::device_count();
-  int ok = (ndev > 0) ? 1 : 0, all_ok = 0;
-  MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, world);
-  if (!all_ok) {
-    if (comm->me == 0)
-      error->warning(FLERR, "Pair gravity: gpu yes, but {}; using the CPU path",
-                     HSGPU::GPU::compiled_with_cuda() ? "no CUDA device is usable on every rank"
-                                                      : "the plugin was built without CUDA");
+  const int device = hsgpu_choose_device(lmp, world, device_request, "Pair gravity");
+  if (device < 0) {
     delete engine;
     engine = nullptr;
     return;
   }
-  int device = device_request;
-  if (device < 0) {
-    MPI_Comm node;
-    MPI_Comm_split_type(world, MPI_COMM_TYPE_SHARED, comm->me, MPI_INFO_NULL, &node);
-    int node_rank = 0;
-    MPI_Comm_rank(node, &node_rank);
-    MPI_Comm_free(&node);
-    device = node_rank % ndev;
-  }
-  if (device >= ndev)
-    error->one(FLERR, "Pair gravity: device {} requested but this node has {} CUDA device(s)",
-               device, ndev);
   if (!engine || engine->device() != device) {
     delete engine;
     engine = nullptr;

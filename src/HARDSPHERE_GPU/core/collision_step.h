@@ -102,7 +102,11 @@ namespace Collide {
     // The event was found with the body approaching; recomputed here at t, round-off can
     // leave a tiny outward speed: treat that as a contact at zero speed (which rests it)
     // rather than as no event, which would be found again at once.
-    const double un = fmin(s * u, 0.0);
+    // The sign of a zero result is made +0 by adding +0: fmin, or a comparison that the
+    // device compiler turns into a min instruction, gives -0 on the device where the host
+    // gives +0, and the sign would reach the velocity.
+    const double su = s * u;
+    const double un = (su < 0.0 ? su : 0.0) + 0.0;
     for (int k = 0; k < 3; ++k) b.x[k] = x[k];
     b.tref = t;
     b.last = 0;

@@ -2,6 +2,7 @@
    are reached through gravity_kernels.cuh. */
 #include "gravity_engine.h"
 
+#include "cuda_check.cuh"
 #include "gravity_kernels.cuh"
 
 #include <cuda_runtime.h>
@@ -16,34 +17,6 @@ namespace GPU {
   namespace {
     constexpr int SORT_INTERVAL = 16;
 
-    void check(cudaError_t err, const char *what)
-    {
-      if (err != cudaSuccess)
-        throw Error(std::string(what) + ": " + cudaGetErrorName(err) + ": " +
-                    cudaGetErrorString(err));
-    }
-
-    // A device buffer that only grows (by 25 % headroom), keeping its address otherwise.
-    struct Buffer {
-      void *ptr = nullptr;
-      size_t bytes = 0;
-      void reserve(size_t need, const char *what)
-      {
-        if (need <= bytes) return;
-        if (ptr) check(cudaFree(ptr), what);
-        ptr = nullptr;
-        bytes = 0;
-        const size_t want = need + need / 4;
-        check(cudaMalloc(&ptr, want), what);
-        bytes = want;
-      }
-      void release()
-      {
-        if (ptr) cudaFree(ptr);
-        ptr = nullptr;
-        bytes = 0;
-      }
-    };
   }    // namespace
 
   struct GravityEngine::Impl {
@@ -52,8 +25,8 @@ namespace GPU {
     std::string name;
     cudaStream_t stream = nullptr;
     cudaEvent_t start = nullptr, stop = nullptr;
-    Buffer x, m, src, tidx, scratch, f, e, v;
-    Buffer keys, tsorted, slot, sort_temp;    // Mixed: targets in Z-curve order
+    DeviceBuffer x, m, src, tidx, scratch, f, e, v;
+    DeviceBuffer keys, tsorted, slot, sort_temp;    // Mixed: targets in Z-curve order
     // The Z-curve order is redone when the targets change and otherwise every
     // SORT_INTERVAL calls: atoms move little in between, so blocks stay compact.
     bool sorted = false;
@@ -82,10 +55,10 @@ namespace GPU {
       sort_temp.reserve(temp, "cudaMalloc(sort space)");
       sorted = true;
       calls_since_sort = 0;
-      check(sort_targets((const double *) x.ptr, (const int *) tidx.ptr, nt, a,
-                         (unsigned *) keys.ptr, (int *) tsorted.ptr, (int *) slot.ptr,
-                         sort_temp.ptr, temp, stream),
-            "target sort");
+      cuda_check(sort_targets((const double *) x.ptr, (const int *) tidx.ptr, nt, a,
+                              (unsigned *) keys.ptr, (int *) tsorted.ptr, (int *) slot.ptr,
+                              sort_temp.ptr, temp, stream),
+                 "target sort");
     }
     ++calls_since_sort;
     targets = (const int *) tsorted.ptr;
@@ -96,14 +69,15 @@ namespace GPU {
   {
     impl->device = device;
     try {
-      check(cudaSetDevice(device), "cudaSetDevice");
+      cuda_check(cudaSetDevice(device), "cudaSetDevice");
       cudaDeviceProp prop;
-      check(cudaGetDeviceProperties(&prop, device), "cudaGetDeviceProperties");
+      cuda_check(cudaGetDeviceProperties(&prop, device), "cudaGetDeviceProperties");
       impl->num_sms = prop.multiProcessorCount;
       impl->name = prop.name;
-      check(cudaStreamCreateWithFlags(&impl->stream, cudaStreamNonBlocking), "cudaStreamCreate");
-      check(cudaEventCreate(&impl->start), "cudaEventCreate");
-      check(cudaEventCreate(&impl->stop), "cudaEventCreate");
+      cuda_check(cudaStreamCreateWithFlags(&impl->stream, cudaStreamNonBlocking),
+                 "cudaStreamCreate");
+      cuda_check(cudaEventCreate(&impl->start), "cudaEventCreate");
+      cuda_check(cudaEventCreate(&impl->stop), "cudaEventCreate");
     } catch (...) {
       delete impl;
       throw;
@@ -113,7 +87,7 @@ namespace GPU {
   GravityEngine::~GravityEngine()
   {
     cudaSetDevice(impl->device);
-    for (Buffer *b :
+    for (DeviceBuffer *b :
          {&impl->x, &impl->m, &impl->src, &impl->tidx, &impl->scratch, &impl->f, &impl->e, &impl->v,
           &impl->keys, &impl->tsorted, &impl->slot, &impl->sort_temp})
       b->release();
@@ -146,15 +120,15 @@ namespace GPU {
 
   void GravityEngine::set_sources(long n, const double *x, const double *m, bool masses_changed)
   {
-    check(cudaSetDevice(impl->device), "cudaSetDevice");
+    cuda_check(cudaSetDevice(impl->device), "cudaSetDevice");
     const bool grown = (n != impl->nsrc);
     impl->x.reserve(3 * n * sizeof(double) + 1, "cudaMalloc(positions)");
     impl->m.reserve(n * sizeof(double) + 1, "cudaMalloc(masses)");
-    check(cudaMemcpyAsync(impl->x.ptr, x, 3 * n * sizeof(double), cudaMemcpyHostToDevice,
-                          impl->stream),
-          "cudaMemcpy(positions)");
+    cuda_check(cudaMemcpyAsync(impl->x.ptr, x, 3 * n * sizeof(double), cudaMemcpyHostToDevice,
+                               impl->stream),
+               "cudaMemcpy(positions)");
     if (grown || masses_changed) {
-      check(
+      cuda_check(
           cudaMemcpyAsync(impl->m.ptr, m, n * sizeof(double), cudaMemcpyHostToDevice, impl->stream),
           "cudaMemcpy(masses)");
       impl->max_mass = 0.0;
@@ -165,7 +139,7 @@ namespace GPU {
 
   void GravityEngine::set_targets(long ntgt, const long *index)
   {
-    check(cudaSetDevice(impl->device), "cudaSetDevice");
+    cuda_check(cudaSetDevice(impl->device), "cudaSetDevice");
     bool same = (ntgt == impl->ntgt);
     for (long i = 0; same && i < ntgt; ++i) same = (impl->host_tidx[i] == (int) index[i]);
     if (same) return;
@@ -176,12 +150,12 @@ namespace GPU {
       impl->targets_identity &= (index[i] == i);
     }
     impl->tidx.reserve(ntgt * sizeof(int) + 1, "cudaMalloc(targets)");
-    check(cudaMemcpyAsync(impl->tidx.ptr, impl->host_tidx.data(), ntgt * sizeof(int),
-                          cudaMemcpyHostToDevice, impl->stream),
-          "cudaMemcpy(targets)");
+    cuda_check(cudaMemcpyAsync(impl->tidx.ptr, impl->host_tidx.data(), ntgt * sizeof(int),
+                               cudaMemcpyHostToDevice, impl->stream),
+               "cudaMemcpy(targets)");
     // The stream keeps the copy ordered before the next kernel; host_tidx must stay valid
     // until then, which it does (it only changes in the next set_targets call, after a sync).
-    check(cudaStreamSynchronize(impl->stream), "cudaStreamSynchronize(targets)");
+    cuda_check(cudaStreamSynchronize(impl->stream), "cudaStreamSynchronize(targets)");
     impl->ntgt = ntgt;
     impl->sorted = false;
   }
@@ -189,7 +163,7 @@ namespace GPU {
   void GravityEngine::compute(Precision p, const GravityArgs &a, double *f, double *e, double *v,
                               GravityShape shape)
   {
-    check(cudaSetDevice(impl->device), "cudaSetDevice");
+    cuda_check(cudaSetDevice(impl->device), "cudaSetDevice");
     const long n = impl->nsrc, nt = impl->ntgt;
     impl->last_once = a.pairs_once > 0 && pairs_once_supported(p, a) && impl->targets_identity &&
                       nt == n && (a.pairs_once > 1 || pairs_once_pays(p, n));
@@ -205,33 +179,34 @@ namespace GPU {
         impl->e.reserve(nt * sizeof(double) + 1, "cudaMalloc(energies)");
         impl->v.reserve(6 * nt * sizeof(double) + 1, "cudaMalloc(virials)");
       }
-      check(pack_sources(p, (const double *) impl->x.ptr, (const double *) impl->m.ptr, n, a,
-                         impl->src.ptr, impl->stream),
-            "pack_sources kernel");
-      check(cudaEventRecord(impl->start, impl->stream), "cudaEventRecord");
+      cuda_check(pack_sources(p, (const double *) impl->x.ptr, (const double *) impl->m.ptr, n, a,
+                              impl->src.ptr, impl->stream),
+                 "pack_sources kernel");
+      cuda_check(cudaEventRecord(impl->start, impl->stream), "cudaEventRecord");
       const int *targets = (const int *) impl->tidx.ptr;
       const int *slot = nullptr;
       if (p == Precision::Mixed && nt > 0) impl->order_targets(a, targets, slot);
-      check(compute_gravity(p, shape, impl->src.ptr, n, targets, slot, nt,
-                            (const double *) impl->m.ptr, impl->max_mass, a, impl->scratch.ptr,
-                            (double *) impl->f.ptr, (double *) impl->e.ptr, (double *) impl->v.ptr,
-                            impl->stream),
-            "gravity kernel");
+      cuda_check(compute_gravity(p, shape, impl->src.ptr, n, targets, slot, nt,
+                                 (const double *) impl->m.ptr, impl->max_mass, a, impl->scratch.ptr,
+                                 (double *) impl->f.ptr, (double *) impl->e.ptr,
+                                 (double *) impl->v.ptr, impl->stream),
+                 "gravity kernel");
     }
-    check(cudaEventRecord(impl->stop, impl->stream), "cudaEventRecord");
-    check(cudaMemcpyAsync(f, impl->f.ptr, 3 * nt * sizeof(double), cudaMemcpyDeviceToHost,
-                          impl->stream),
-          "cudaMemcpy(forces)");
+    cuda_check(cudaEventRecord(impl->stop, impl->stream), "cudaEventRecord");
+    cuda_check(cudaMemcpyAsync(f, impl->f.ptr, 3 * nt * sizeof(double), cudaMemcpyDeviceToHost,
+                               impl->stream),
+               "cudaMemcpy(forces)");
     if (a.energy_virial) {
-      check(cudaMemcpyAsync(e, impl->e.ptr, nt * sizeof(double), cudaMemcpyDeviceToHost,
-                            impl->stream),
-            "cudaMemcpy(energies)");
-      check(cudaMemcpyAsync(v, impl->v.ptr, 6 * nt * sizeof(double), cudaMemcpyDeviceToHost,
-                            impl->stream),
-            "cudaMemcpy(virials)");
+      cuda_check(cudaMemcpyAsync(e, impl->e.ptr, nt * sizeof(double), cudaMemcpyDeviceToHost,
+                                 impl->stream),
+                 "cudaMemcpy(energies)");
+      cuda_check(cudaMemcpyAsync(v, impl->v.ptr, 6 * nt * sizeof(double), cudaMemcpyDeviceToHost,
+                                 impl->stream),
+                 "cudaMemcpy(virials)");
     }
-    check(cudaStreamSynchronize(impl->stream), "gravity kernel (synchronize)");
-    check(cudaEventElapsedTime(&impl->kernel_ms, impl->start, impl->stop), "cudaEventElapsedTime");
+    cuda_check(cudaStreamSynchronize(impl->stream), "gravity kernel (synchronize)");
+    cuda_check(cudaEventElapsedTime(&impl->kernel_ms, impl->start, impl->stop),
+               "cudaEventElapsedTime");
   }
 
   // Reserves, records the start event and launches the pairs-once kernels for all sources;
@@ -243,14 +218,14 @@ namespace GPU {
     impl->src.reserve(pairs_once_source_bytes(p, L), "cudaMalloc(sources)");
     impl->scratch.reserve(pairs_once_scratch_bytes(p, L), "cudaMalloc(scratch)");
     impl->f.reserve(3 * n * sizeof(double) + 1, "cudaMalloc(forces)");
-    check(cudaEventRecord(impl->start, impl->stream), "cudaEventRecord");
+    cuda_check(cudaEventRecord(impl->start, impl->stream), "cudaEventRecord");
     // Mixed: blocks of bodies that are close in space (the targets are all bodies, in order).
     const int *order = nullptr, *slot = nullptr;
     if (p == Precision::Mixed) impl->order_targets(a, order, slot);
-    check(compute_gravity_pairs_once(p, L, (const double *) impl->x.ptr,
-                                     (const double *) impl->m.ptr, n, order, slot, a, impl->src.ptr,
-                                     impl->scratch.ptr, (double *) impl->f.ptr, impl->stream),
-          "gravity kernel (pairs once)");
+    cuda_check(compute_gravity_pairs_once(
+                   p, L, (const double *) impl->x.ptr, (const double *) impl->m.ptr, n, order, slot,
+                   a, impl->src.ptr, impl->scratch.ptr, (double *) impl->f.ptr, impl->stream),
+               "gravity kernel (pairs once)");
   }
 
 }    // namespace GPU

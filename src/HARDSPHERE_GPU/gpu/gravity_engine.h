@@ -8,18 +8,13 @@
 #ifndef HSGPU_GPU_GRAVITY_ENGINE_H
 #define HSGPU_GPU_GRAVITY_ENGINE_H
 
+#include "gpu_error.h"
 #include "gravity_types.h"
 
-#include <stdexcept>
 #include <string>
 
 namespace HSGPU {
 namespace GPU {
-
-  class Error : public std::runtime_error {
-   public:
-    explicit Error(const std::string &what) : std::runtime_error(what) {}
-  };
 
   class GravityEngine {
    public:

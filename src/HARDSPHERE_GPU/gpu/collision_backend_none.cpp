@@ -1,0 +1,21 @@
+/* HARDSPHERE_GPU collision engine: the CUDA backend for a build without CUDA, see
+   collision_backend_cuda.h.  Asking for one throws, so callers fall back to the CPU backend. */
+#include "collision_backend_cuda.h"
+
+#include "gpu_error.h"
+
+namespace HSGPU {
+namespace Collide {
+
+  std::unique_ptr<CollisionBackend> make_cuda_backend(int)
+  {
+    throw GPU::Error("built without CUDA");
+  }
+
+  bool cuda_backend_available()
+  {
+    return false;
+  }
+
+}    // namespace Collide
+}    // namespace HSGPU
