@@ -42,6 +42,36 @@ namespace Collide {
     return a.k2 < b.k2;
   }
 
+  /// Body b's wall event (t = never() if none), with its tie-break key and version stamps.
+  HSGPU_HD Event wall_event(const Body *bodies, const Params &p, int b)
+  {
+    Event ev;
+    int face = -1;
+    ev.t = wall_event_time(bodies[b], p.walls, p.dt, face);
+    ev.k1 = bodies[b].id;
+    ev.k2 = -1 - face;
+    ev.index = b;
+    ev.face = face;
+    ev.s1 = ev.s2 = bodies[b].nevents;
+    return ev;
+  }
+
+  /// Edge q's pair event (t = never() if none), with its tie-break key and version stamps.
+  HSGPU_HD Event pair_event(const Body *bodies, const Edge *edges, const Params &p, int q)
+  {
+    const Edge &e = edges[q];
+    const Body &bi = bodies[e.i], &bj = bodies[e.j];
+    Event ev;
+    ev.t = pair_event_time(bi, bj, e, p.dt);
+    ev.k1 = bi.id;
+    ev.k2 = bj.id;
+    ev.index = q;
+    ev.face = -1;
+    ev.s1 = bi.nevents;
+    ev.s2 = bj.nevents;
+    return ev;
+  }
+
   /// Disjoint sets with path halving; the representative is the smallest index of a set.
   struct UnionFind {
     std::vector<int> parent;
@@ -183,34 +213,6 @@ namespace Collide {
         adj[fill[edges[q].i]++] = q;
         adj[fill[edges[q].j]++] = q;
       }
-    }
-
-    static Event wall_event(const Body *bodies, const Params &p, int b)
-    {
-      Event ev;
-      int face = -1;
-      ev.t = wall_event_time(bodies[b], p.walls, p.dt, face);
-      ev.k1 = bodies[b].id;
-      ev.k2 = -1 - face;
-      ev.index = b;
-      ev.face = face;
-      ev.s1 = ev.s2 = bodies[b].nevents;
-      return ev;
-    }
-
-    static Event pair_event(const Body *bodies, const Edge *edges, const Params &p, int q)
-    {
-      const Edge &e = edges[q];
-      const Body &bi = bodies[e.i], &bj = bodies[e.j];
-      Event ev;
-      ev.t = pair_event_time(bi, bj, e, p.dt);
-      ev.k1 = bi.id;
-      ev.k2 = bj.id;
-      ev.index = q;
-      ev.face = -1;
-      ev.s1 = bi.nevents;
-      ev.s2 = bj.nevents;
-      return ev;
     }
 
     Event best_event(const Body *bodies, const Edge *edges, const Params &p, int b) const

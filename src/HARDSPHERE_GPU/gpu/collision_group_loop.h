@@ -41,43 +41,13 @@ namespace Collide {
     Event *best;
   };
 
-  /// Body b's wall event (t = never() if none), keyed as in core/event_order.h.
-  HSGPU_HD Event group_wall_event(const Body *bodies, const Params &p, int b)
-  {
-    Event ev;
-    int face = -1;
-    ev.t = wall_event_time(bodies[b], p.walls, p.dt, face);
-    ev.k1 = bodies[b].id;
-    ev.k2 = -1 - face;
-    ev.index = b;
-    ev.face = face;
-    ev.s1 = ev.s2 = bodies[b].nevents;
-    return ev;
-  }
-
-  /// Edge q's pair event (t = never() if none), keyed as in core/event_order.h.
-  HSGPU_HD Event group_pair_event(const Body *bodies, const Edge *edges, const Params &p, int q)
-  {
-    const Edge &e = edges[q];
-    const Body &bi = bodies[e.i], &bj = bodies[e.j];
-    Event ev;
-    ev.t = pair_event_time(bi, bj, e, p.dt);
-    ev.k1 = bi.id;
-    ev.k2 = bj.id;
-    ev.index = q;
-    ev.face = -1;
-    ev.s1 = bi.nevents;
-    ev.s2 = bj.nevents;
-    return ev;
-  }
-
   /// The earliest candidate event of body b: its wall event, or the earliest pair event of
   /// its edges (first in adjacency order among equal keys).
   HSGPU_HD Event group_best_event(const GroupGraph &g, const Params &p, int b)
   {
-    Event e = group_wall_event(g.bodies, p, b);
+    Event e = wall_event(g.bodies, p, b);
     for (int k = g.adj_start[b]; k < g.adj_start[b + 1]; ++k) {
-      const Event c = group_pair_event(g.bodies, g.edges, p, g.adj[k]);
+      const Event c = pair_event(g.bodies, g.edges, p, g.adj[k]);
       if (c.t != Contact::never() && (e.t == Contact::never() || earlier(c, e))) e = c;
     }
     return e;
