@@ -57,10 +57,10 @@ double restitution_arg(const char *arg, LAMMPS *lmp)
 
 FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
     Fix(lmp, narg, arg), serial_order(0), nwindows_user(0), tc_user(-1.0), vmin(0.0),
-    maxevents_user(-1), maxevents_warn(0), overlap_push(0), reach_user(-1.0), rmax(0.0),
-    reach(0.0), list_cut(0.0), maxevents(0), tlast(nullptr), n_step(0.0), n_total(0.0),
-    n_wall(0.0), ke_total(0.0), max_events(0.0), events_total(0.0), n_redo(0.0),
-    last_largest(0.0), last_groups(0.0), last_windows(0.0), last_boundary(0.0), last_gathers(0.0), t_search(0.0),
+    maxevents_user(-1), maxevents_warn(0), overlap_push(0), reach_user(-1.0), rmax(0.0), reach(0.0),
+    list_cut(0.0), maxevents(0), tlast(nullptr), n_step(0.0), n_total(0.0), n_wall(0.0),
+    ke_total(0.0), max_events(0.0), events_total(0.0), n_redo(0.0), last_largest(0.0),
+    last_groups(0.0), last_windows(0.0), last_boundary(0.0), last_gathers(0.0), t_search(0.0),
     t_resolve(0.0), n_repair(0.0), bound_floor(0.0), exchange(nullptr), fwd_nval(0), n_push(0.0)
 {
   for (double &o : ovl) o = 0.0;
@@ -347,8 +347,17 @@ double FixHardSphere::compute_vector(int n)
    hold 7 values: n_total n_wall ke_total max_events events_total n_redo n_step. */
 void FixHardSphere::write_restart(FILE *fp)
 {
-  const double state[] = {-(double) RESTART_FORMAT, 9.0,    n_total, n_wall,  ke_total,
-                          max_events,   events_total, n_redo, n_step,  n_push, n_repair};
+  const double state[] = {-(double) RESTART_FORMAT,
+                          9.0,
+                          n_total,
+                          n_wall,
+                          ke_total,
+                          max_events,
+                          events_total,
+                          n_redo,
+                          n_step,
+                          n_push,
+                          n_repair};
   const int count = (int) (sizeof(state) / sizeof(double));
   if (comm->me == 0) {
     const int size = (int) sizeof(state);

@@ -76,22 +76,22 @@ class FixHardSphere : public Fix {
   double *tlast;    // time of the atom's last collision relative to the end of the last step
 
   // --- output -----------------------------------------------------------------------------
-  double n_step;          // collisions (pair) this step
-  double n_total;         // pair collisions in total
-  double n_wall;          // wall collisions in total
-  double ke_total;        // kinetic energy removed in total (energy units)
-  double max_events;      // most events any step needed
-  double events_total;    // events in total
-  double n_redo;          // steps redone (larger displacement budget, or a window's check)
-  double last_largest;    // most atoms resolved together in one window, last step
-  double last_groups;     // groups of two or more atoms resolved, last step (all windows)
-  double last_windows;    // time windows of the last step
-  double last_boundary;   // atoms in groups that spanned ranks, last step (all windows)
-  double last_gathers;    // gathers of the groups that span ranks, last step
-  double t_search;        // seconds spent in the candidate search, in total
-  double t_resolve;       // seconds spent resolving, in total
-  double n_repair;        // groups merged and resolved again after a missed contact, in total
-  struct RunSummary {     // this run, for the line post_run() logs
+  double n_step;           // collisions (pair) this step
+  double n_total;          // pair collisions in total
+  double n_wall;           // wall collisions in total
+  double ke_total;         // kinetic energy removed in total (energy units)
+  double max_events;       // most events any step needed
+  double events_total;     // events in total
+  double n_redo;           // steps redone (larger displacement budget, or a window's check)
+  double last_largest;     // most atoms resolved together in one window, last step
+  double last_groups;      // groups of two or more atoms resolved, last step (all windows)
+  double last_windows;     // time windows of the last step
+  double last_boundary;    // atoms in groups that spanned ranks, last step (all windows)
+  double last_gathers;     // gathers of the groups that span ranks, last step
+  double t_search;         // seconds spent in the candidate search, in total
+  double t_resolve;        // seconds spent resolving, in total
+  double n_repair;         // groups merged and resolved again after a missed contact, in total
+  struct RunSummary {      // this run, for the line post_run() logs
     bigint steps = 0;
     double pairs = 0.0, events = 0.0, largest = 0.0, windows = 0.0, groups = 0.0;
     double boundary = 0.0, gathers = 0.0, repairs = 0.0, redos = 0.0;
@@ -117,8 +117,8 @@ class FixHardSphere : public Fix {
   std::vector<HSGPU::Collide::ForeignEdge> efedges;
   std::vector<HSGPU::Collide::ForeignNode> fnodes;
   std::vector<double> spos, srad, sraw, sbound;    // the candidate search's points
-  std::vector<double> sboost;    // per owned atom: a bound raised by a step's check
-  double bound_floor;            // least step bound of any atom: half the fastest drift
+  std::vector<double> sboost;        // per owned atom: a bound raised by a step's check
+  double bound_floor;                // least step bound of any atom: half the fastest drift
   std::vector<double> bexc, fexc;    // per body / foreign node: excursion in the step
   std::vector<tagint> sid;
   std::vector<int> sidx, sbody, snode, spairs;
@@ -128,8 +128,8 @@ class FixHardSphere : public Fix {
   HSGPU::Collide::WindowSettings wsettings;
   std::unique_ptr<HSGPU::Collide::CollisionBackend> backend;
   class LammpsExchange *exchange;
-  int fwd_nval;                  // forward communication: 0 the state (NFWD), else xfwd's nval
-  std::vector<double> xfwd;      // per-atom values for the driver's to_foreign
+  int fwd_nval;                     // forward communication: 0 the state (NFWD), else xfwd's nval
+  std::vector<double> xfwd;         // per-atom values for the driver's to_foreign
   std::vector<char> in_boundary;    // body is in a component that touches a foreign node
   std::vector<HSGPU::Collide::Body> lbodies, gbodies;
   std::vector<HSGPU::Collide::Edge> ledges, gedges;

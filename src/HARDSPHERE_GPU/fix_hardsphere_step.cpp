@@ -292,9 +292,8 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
   // one.  Pairs found directly appear once, and never also through an image (init() keeps
   // periodic lengths above twice the candidate range).
   if (!iedges.empty()) {
-    std::sort(iedges.begin(), iedges.end(), [](const Edge &a, const Edge &b) {
-      return a.i < b.i || (a.i == b.i && a.j < b.j);
-    });
+    std::sort(iedges.begin(), iedges.end(),
+              [](const Edge &a, const Edge &b) { return a.i < b.i || (a.i == b.i && a.j < b.j); });
     iedges.erase(std::unique(iedges.begin(), iedges.end(),
                              [](const Edge &a, const Edge &b) { return a.i == b.i && a.j == b.j; }),
                  iedges.end());
@@ -706,8 +705,8 @@ bool FixHardSphere::step_exact()
       const double ec = sbody[c] >= 0 ? bexc[sbody[c]] : fexc[snode[c]];
       const int lo = sid[c] < sid[b] ? c : b, hi = lo == c ? b : c;
       double r[3], sh[3];
-      HSGPU::Collide::nearest_image_separation(&sraw[3 * (size_t) lo], &sraw[3 * (size_t) hi],
-                                               prd, periodic, r, sh);
+      HSGPU::Collide::nearest_image_separation(&sraw[3 * (size_t) lo], &sraw[3 * (size_t) hi], prd,
+                                               periodic, r, sh);
       const double dist = std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
       const double contact = srad[lo] + srad[hi];
       if (dist <= contact + (sbound[lo] + sbound[hi])) continue;    // a candidate

@@ -24,7 +24,6 @@ namespace hsgpu_test {
 
 using namespace HSGPU::Collide;
 
-
 struct Sphere {
   long id;
   double x[3], u[3], r, m;
@@ -91,8 +90,7 @@ inline Order windows(int n, double bound_factor = 1.5, long target = 0)
 
 // One velocity-Verlet step with hard-sphere collisions resolved in the given order (time
 // windows with the given backend, the CPU one by default).
-inline StepResult step(World &w, double dt, const Order &order,
-                       CollisionBackend *backend = nullptr)
+inline StepResult step(World &w, double dt, const Order &order, CollisionBackend *backend = nullptr)
 {
   const bool serial = order.kind == Order::Serial;
   const int n = (int) w.s.size();
@@ -159,8 +157,7 @@ inline StepResult step(World &w, double dt, const Order &order,
       res.resolve_components(bodies, edges, p, out.tally);
       out.max_component_events = res.max_component_events;
     } else {
-      driver.run(bodies, edges, {}, {}, p, order.windows, *backend, single, out.tally,
-                 out.stats);
+      driver.run(bodies, edges, {}, {}, p, order.windows, *backend, single, out.tally, out.stats);
       out.window_redo += (int) out.stats.repairs;
     }
     EXPECT_EQ(out.tally.capped, 0) << "a step needed more than " << p.maxevents << " events";
@@ -237,7 +234,6 @@ inline World periodic_gas(unsigned seed, double e)
   return w;
 }
 
-
 // The time-window driver against the global loop, bit for bit: fixed and adaptive windows, a
 // small group target (many halvings), a low bound factor (many window redos), on a gas under
 // gravity with walls, a dense periodic fluid and a settling inelastic pile with guards.
@@ -282,8 +278,8 @@ inline std::vector<WindowCase> window_cases()
 // Runs every window case with each order against order serial, bit for bit.
 inline void check_windows_equal_serial(CollisionBackend *backend)
 {
-  const Order orders[] = {windows(1), windows(3), windows(7), windows(0), windows(0, 1.5, 4),
-                          windows(0, 0.25, 0), windows(5, 0.1, 0)};
+  const Order orders[] = {windows(1),         windows(3),          windows(7),        windows(0),
+                          windows(0, 1.5, 4), windows(0, 0.25, 0), windows(5, 0.1, 0)};
   for (const WindowCase &wc : window_cases()) {
     for (const Order &o : orders) {
       World ws = wc.world, ww = wc.world;
@@ -300,10 +296,12 @@ inline void check_windows_equal_serial(CollisionBackend *backend)
         largest = std::max(largest, rw.stats.largest_group);
         nwin += rw.stats.windows;
       }
-      std::printf("[ WINDOWS  ] %s backend, %s, windows %d, k %.2f, target %ld: %ld pair collisions, "
-                  "largest group %ld of %zu, %.2f windows/step, %ld repairs\n",
-                  backend ? backend->name().c_str() : "cpu", wc.name, o.windows.nwindows, o.windows.bound_factor, o.windows.target_group,
-                  pairs, largest, wc.world.s.size(), (double) nwin / wc.steps, redos);
+      std::printf(
+          "[ WINDOWS  ] %s backend, %s, windows %d, k %.2f, target %ld: %ld pair collisions, "
+          "largest group %ld of %zu, %.2f windows/step, %ld repairs\n",
+          backend ? backend->name().c_str() : "cpu", wc.name, o.windows.nwindows,
+          o.windows.bound_factor, o.windows.target_group, pairs, largest, wc.world.s.size(),
+          (double) nwin / wc.steps, redos);
       EXPECT_GT(pairs, 100) << wc.name;
       if (o.windows.bound_factor < 0.5) {
         EXPECT_GT(redos, 0) << "the repair path was not taken";

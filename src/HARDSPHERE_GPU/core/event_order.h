@@ -116,9 +116,9 @@ namespace Collide {
       comp_members.resize(n);
       fill.assign(comp_start.begin(), comp_start.end() - 1);
       for (int b = 0; b < n; ++b) comp_members[fill[uf.find(b)]++] = b;
-      max_component_events = resolve_groups(bodies.data(), n, edges.data(), (int) edges.size(),
-                                             comp_start.data(), comp_members.data(), n,
-                                             Contact::never(), p, tally);
+      max_component_events =
+          resolve_groups(bodies.data(), n, edges.data(), (int) edges.size(), comp_start.data(),
+                         comp_members.data(), n, Contact::never(), p, tally);
     }
 
     /// Resolves the groups comp_members[comp_start[g] .. comp_start[g + 1]) (empty groups
@@ -255,7 +255,8 @@ namespace Collide {
     void push_body(const Body *bodies, const Edge *edges, const Params &p, int b)
     {
       push(wall_event(bodies, p, b));
-      for (int q = adj_start[b]; q < adj_start[b + 1]; ++q) push(pair_event(bodies, edges, p, adj[q]));
+      for (int q = adj_start[b]; q < adj_start[b + 1]; ++q)
+        push(pair_event(bodies, edges, p, adj[q]));
     }
 
     long resolve_one(Body *bodies, const Edge *edges, const Params &p, Tally &tally,

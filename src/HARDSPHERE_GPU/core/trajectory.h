@@ -198,7 +198,7 @@ namespace Collide {
   /// makes it the nearest image.  Anti-symmetric to the last bit: swapping i and j negates
   /// both results exactly, so every rank computes the same edge from the same coordinates.
   HSGPU_HD void nearest_image_separation(const double *xi, const double *xj, const double *prd,
-                                       const int *periodic, double *r, double *shift)
+                                         const int *periodic, double *r, double *shift)
   {
     for (int d = 0; d < 3; ++d) {
       const double dx = xi[d] - xj[d];

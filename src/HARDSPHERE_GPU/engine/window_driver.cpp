@@ -189,8 +189,8 @@ namespace Collide {
   void WindowDriver::resolve_boundary(std::vector<Body> &bodies,
                                       const std::vector<ForeignEdge> &fedges,
                                       const std::vector<ForeignNode> &foreign, const Params &p,
-                                      double t1, CollisionBackend &backend, Exchange &ex,
-                                      Tally &tb, long &largest, long &ngroups, long &nbound)
+                                      double t1, CollisionBackend &backend, Exchange &ex, Tally &tb,
+                                      long &largest, long &ngroups, long &nbound)
   {
     const int nb = (int) bodies.size();
     // Partners with a higher ID of each boundary body: window edges only.
@@ -277,8 +277,14 @@ namespace Collide {
     for (int g = 0; g < ngr; ++g)
       if (gstart2[g + 1] - gstart2[g] > 1) ++ngroups;
     nbound += ng;
-    WindowWork w{gbodies.data(), ng, gedges.data(), (int) gedges.size(), gstart2.data(),
-                 gmembers2.data(), ngr, t1};
+    WindowWork w{gbodies.data(),
+                 ng,
+                 gedges.data(),
+                 (int) gedges.size(),
+                 gstart2.data(),
+                 gmembers2.data(),
+                 ngr,
+                 t1};
     backend.resolve(w, p, tb);
     for (int k = 0; k < ng; ++k)
       if (gmine[k] >= 0) {
@@ -383,8 +389,9 @@ namespace Collide {
       cap.events = events_before;
       for (int g = 0; g < ng; ++g)
         if (!redo[merged.find(g)]) cap.events += gtally[g].events;
-      WindowWork w{sub.data(), (int) sub.size(), subedges.data(), (int) subedges.size(),
-                   substart.data(), ident.data(), nsets, t1, st.data()};
+      WindowWork w{sub.data(),      (int) sub.size(), subedges.data(), (int) subedges.size(),
+                   substart.data(), ident.data(),     nsets,           t1,
+                   st.data()};
       backend.resolve(w, p, cap);
       repairs += nsets;
       // Back into place; the merged set's tally goes to its root group.
@@ -414,8 +421,7 @@ namespace Collide {
      foreign node and could have touched.  They are joined (their local groups become part of
      the boundary groups); every rank sees the same foreign pairs.  Returns the number joined
      over all ranks. */
-  long WindowDriver::join_missed_boundary(std::vector<Body> &bodies,
-                                          const std::vector<Edge> &edges,
+  long WindowDriver::join_missed_boundary(std::vector<Body> &bodies, const std::vector<Edge> &edges,
                                           const std::vector<ForeignEdge> &fedges,
                                           const std::vector<ForeignNode> &foreign, Exchange &ex)
   {
@@ -509,12 +515,12 @@ namespace Collide {
         t1 = (k + 1 >= s.nwindows) ? dt : dt * (double) (k + 1) / (double) s.nwindows;
         largest = window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex);
       } else {
-        // Halve until the largest group is within the target, down to dt * MIN_WINDOW (dt / 16), and
-        // take the longest length whose largest group is within 5/4 of the smallest seen: in
-        // a pile, whose touching bodies stay joined however short the window, that is the
-        // longest tried.  After such a window ("stuck") the rest of the step is one window,
-        // and the next step tries its full length and one halving only, exploring all lengths
-        // again every STUCK_RETRY steps.
+        // Halve until the largest group is within the target, down to dt * MIN_WINDOW (dt / 16),
+        // and take the longest length whose largest group is within 5/4 of the smallest seen: in a
+        // pile, whose touching bodies stay joined however short the window, that is the longest
+        // tried.  After such a window ("stuck") the rest of the step is one window, and the next
+        // step tries its full length and one halving only, exploring all lengths again every
+        // STUCK_RETRY steps.
         t1 = t0 + guess;
         if (t1 > dt * (1.0 - 1e-9)) t1 = dt;
         if (stuck_left > 0 && k > 0) t1 = dt;
@@ -558,13 +564,15 @@ namespace Collide {
       gtally.assign(nlocal_groups, Tally());
       Tally cap;
       cap.events = tloc.events;
-      WindowWork w{bodies.data(), nb, wedges.data(), (int) wedges.size(), gstart.data(),
-                   gmembers.data(), nlocal_groups, t1, gtally.data()};
+      WindowWork w{
+          bodies.data(), nb, wedges.data(), (int) wedges.size(), gstart.data(), gmembers.data(),
+          nlocal_groups, t1, gtally.data()};
       backend.resolve(w, p, cap);
       excursions(bodies, t1);
       long repairs = 0;
       merged.reset(nlocal_groups);
-      largest = std::max(largest, repair_local(bodies, edges, p, t1, backend, tloc.events, repairs));
+      largest =
+          std::max(largest, repair_local(bodies, edges, p, t1, backend, tloc.events, repairs));
       // Boundary groups, the same on every rank; repaired until no missed pair is left.
       long bl = 0, bg = 0, nbound = 0;
       if (ex.nranks() > 1) {

@@ -83,8 +83,7 @@ namespace Collide {
     {
       foreign.clear();
     }
-    void allgather(const std::vector<double> &send, std::vector<double> &recv,
-                   long &mine) override
+    void allgather(const std::vector<double> &send, std::vector<double> &recv, long &mine) override
     {
       recv = send;
       mine = 0;
@@ -94,18 +93,18 @@ namespace Collide {
   };
 
   struct WindowSettings {
-    int nwindows = 0;             // > 0: that many equal windows; 0: adaptive
-    double bound_factor = 1.5;      // k in d = max(k |v|, f vmax) (t1 - t0)
-    double floor_fraction = 0.25;   // f: the floor, as a fraction of the fastest drift speed
-    long target_group = 0;          // adaptive: largest group wanted; <= 0: max(256, N / 128)
+    int nwindows = 0;                // > 0: that many equal windows; 0: adaptive
+    double bound_factor = 1.5;       // k in d = max(k |v|, f vmax) (t1 - t0)
+    double floor_fraction = 0.25;    // f: the floor, as a fraction of the fastest drift speed
+    long target_group = 0;           // adaptive: largest group wanted; <= 0: max(256, N / 128)
   };
 
   /// What the last step did (global figures, the same on every rank).
   struct WindowStats {
-    long largest_group = 0;    // most bodies resolved together in one window
-    long groups = 0;           // groups with at least one event, summed over the windows
-    long windows = 0;          // windows of the step (of its final pass)
-    long boundary_bodies = 0;  // bodies in boundary groups, summed over the windows
+    long largest_group = 0;      // most bodies resolved together in one window
+    long groups = 0;             // groups with at least one event, summed over the windows
+    long windows = 0;            // windows of the step (of its final pass)
+    long boundary_bodies = 0;    // bodies in boundary groups, summed over the windows
     long repairs = 0;            // groups resolved again after a missed pair was joined
     long gathers = 0;            // gathers of boundary groups (windows and their repairs)
   };
@@ -120,24 +119,24 @@ namespace Collide {
              Tally &mine, WindowStats &stats);
 
    private:
-    double last_delta = 0.0;          // length of the last window, for the next one's guess
-    double speed_floor = 0.0;         // f vmax of this step
-    int stuck_left = 0;               // > 0: a recent window could not meet the target
+    double last_delta = 0.0;     // length of the last window, for the next one's guess
+    double speed_floor = 0.0;    // f vmax of this step
+    int stuck_left = 0;          // > 0: a recent window could not meet the target
     std::vector<std::pair<double, long>> tried;    // (window end, largest group) tried
     // per window
-    std::vector<Body> snap;           // the bodies at the window start
-    std::vector<Tally> gtally;        // tally of each local group
-    std::vector<int> group_of;        // local body -> local group, -1 in a boundary group
-    UnionFind merged;                 // local groups merged by repairs
-    std::vector<Body> sub;            // repairs: the merged groups' bodies, compacted
+    std::vector<Body> snap;       // the bodies at the window start
+    std::vector<Tally> gtally;    // tally of each local group
+    std::vector<int> group_of;    // local body -> local group, -1 in a boundary group
+    UnionFind merged;             // local groups merged by repairs
+    std::vector<Body> sub;        // repairs: the merged groups' bodies, compacted
     std::vector<Edge> subedges;
     std::vector<int> sub_of, substart, submembers, subgroups;
     std::vector<double> bound, fstate, wstate, fexc, lexc;
-    std::vector<Edge> wedges;         // local window edges
+    std::vector<Edge> wedges;    // local window edges
     std::vector<char> fjoined, ljoined;
-    std::vector<int> fwin;            // indices of foreign edges joined in the window
+    std::vector<int> fwin;    // indices of foreign edges joined in the window
     UnionFind uf;
-    std::vector<char> isb;            // node is the root of a boundary group
+    std::vector<char> isb;    // node is the root of a boundary group
     std::vector<int> gstart, gmembers, fill;
     int nlocal_groups = 0;
     // boundary groups, gathered
@@ -151,9 +150,9 @@ namespace Collide {
                       const std::vector<ForeignNode> &foreign, double t0, double t1,
                       const WindowSettings &s, Exchange &ex);
     void resolve_boundary(std::vector<Body> &bodies, const std::vector<ForeignEdge> &fedges,
-                          const std::vector<ForeignNode> &foreign, const Params &p,
-                          double t1, CollisionBackend &backend, Exchange &ex, Tally &tb,
-                          long &largest, long &ngroups, long &nbound);
+                          const std::vector<ForeignNode> &foreign, const Params &p, double t1,
+                          CollisionBackend &backend, Exchange &ex, Tally &tb, long &largest,
+                          long &ngroups, long &nbound);
     void excursions(std::vector<Body> &bodies, double t1);
     long repair_local(std::vector<Body> &bodies, const std::vector<Edge> &edges, const Params &p,
                       double t1, CollisionBackend &backend, long events_before, long &repairs);
