@@ -145,14 +145,14 @@ class FixHardSphere : public Fix {
   double current_tc() const;
   HSGPU::Collide::Params step_params() const;
   void forward_state(double drift_dt);
-  double step_budget(double &vmax);
+  void step_budget();
   int build(double drift_dt, bool collect_pushes);
   void report_overlap(int npush);
   void prepare(double drift_dt);
   bool step_exact();
   void classify();
   void gather_boundary();
-  void resolve(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all, double &worst);
+  void resolve(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   void sum_tallies(const HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   void step_serial(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   void step_windows(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);

@@ -99,10 +99,9 @@ void FixHardSphere::forward_state(double drift_dt)
   HsgpuCompat::forward_comm(comm, this);
 }
 
-/* The step's displacement budget D: nobody's drift line may leave a ball of radius D around
-   its start point.  Twice the fastest drift plus the bow, at most the reach the neighbor list
-   was built for; the resolution checks it afterwards and redoes the step if it was short. */
-double FixHardSphere::step_budget(double &vmax)
+/* The step's checks on the fastest atom (radius growth, drift within the reach the ghost
+   atoms cover) and the floor of every atom's step bound. */
+void FixHardSphere::step_budget()
 {
   const int nlocal = atom->nlocal;
   const int *mask = atom->mask;
@@ -119,7 +118,7 @@ double FixHardSphere::step_budget(double &vmax)
     loc[2] = std::max(loc[2], atom->radius[i]);
   }
   MPI_Allreduce(loc, glob, 3, MPI_DOUBLE, MPI_MAX, world);
-  vmax = std::sqrt(glob[0]);
+  const double vmax = std::sqrt(glob[0]);
   const double amax = glob[1];
   if (glob[2] > rmax * (1.0 + 1e-12))
     error->all(FLERR,
@@ -138,7 +137,6 @@ double FixHardSphere::step_budget(double &vmax)
   // moves about as far as what hit it, and a bound of zero would make the step's check fail
   // (and the step be redone) each time.
   bound_floor = 0.5 * least;
-  return std::min(2.0 * least + 1e-12 * rmax, reach);
 }
 
 /* Bodies, foreign nodes, edges; overlaps are counted (and, with overlap push, the pushes
@@ -546,8 +544,8 @@ void FixHardSphere::gather_boundary()
 
 /* Resolves the step: local components here, boundary components on every rank.  `mine` is
    this rank's share of the tallies (local plus, on rank 0, the boundary ones), `all` the sum
-   over ranks; `worst` the largest excursion of any drift line. */
-void FixHardSphere::resolve(Tally &mine, Tally &all, double &worst)
+   over ranks.  The bodies' excursions end noted at dt (for step_exact()). */
+void FixHardSphere::resolve(Tally &mine, Tally &all)
 {
   const Params p = step_params();
   const int nb = (int) bodies.size();
@@ -580,17 +578,9 @@ void FixHardSphere::resolve(Tally &mine, Tally &all, double &worst)
       resolver.resolve_components(gbodies, gedges, p, tg);
   }
 
-  double w = 0.0, xe[3], ve[3];
-  for (Body &b : lbodies) {
-    HSGPU::Collide::end_of_step(b, p.dt, xe, ve);
-    w = std::max(w, b.exc2);
-  }
-  for (Body &b : gbodies) {
-    HSGPU::Collide::end_of_step(b, p.dt, xe, ve);
-    w = std::max(w, b.exc2);
-  }
-  w = std::sqrt(w);
-  MPI_Allreduce(&w, &worst, 1, MPI_DOUBLE, MPI_MAX, world);
+  double xe[3], ve[3];
+  for (Body &b : lbodies) HSGPU::Collide::end_of_step(b, p.dt, xe, ve);
+  for (Body &b : gbodies) HSGPU::Collide::end_of_step(b, p.dt, xe, ve);
 
   mine = tl;
   if (comm->me == 0) mine.add(tg);
@@ -726,10 +716,9 @@ void FixHardSphere::step_serial(Tally &mine, Tally &all)
 {
   const double dt = update->dt;
   classify();
-  double worst = 0.0;
   while (true) {
     const double t0 = MPI_Wtime();
-    resolve(mine, all, worst);
+    resolve(mine, all);
     const bool exact = all.capped || step_exact();
     t_resolve += MPI_Wtime() - t0;
     if (exact) break;
@@ -777,8 +766,7 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
 void FixHardSphere::post_integrate()
 {
   const double dt = update->dt;
-  double vmax;
-  step_budget(vmax);
+  step_budget();
   sboost.assign(atom->nlocal, 0.0);
   prepare(dt);
   Tally mine, all;

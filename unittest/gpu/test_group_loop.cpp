@@ -28,18 +28,8 @@ long resolve_like_device(const WindowWork &w, const Params &p, Tally &tally)
   std::vector<Tally> tallies(ng);
   int last = -1;
   if (!tally.capped && n > 0) {
-    std::vector<int> adj_start(n + 1, 0), adj, fill;
-    for (int q = 0; q < w.nedges; ++q) {
-      adj_start[w.edges[q].i + 1]++;
-      adj_start[w.edges[q].j + 1]++;
-    }
-    for (int b = 0; b < n; ++b) adj_start[b + 1] += adj_start[b];
-    adj.resize(adj_start[n]);
-    fill.assign(adj_start.begin(), adj_start.end() - 1);
-    for (int q = 0; q < w.nedges; ++q) {
-      adj[fill[w.edges[q].i]++] = q;
-      adj[fill[w.edges[q].j]++] = q;
-    }
+    std::vector<int> adj_start, adj, fill;
+    edge_adjacency(n, w.edges, w.nedges, adj_start, adj, fill);
     const std::vector<Body> start(w.bodies, w.bodies + n);
     std::vector<Body> bodies;
     std::vector<Event> best(n);

@@ -72,6 +72,25 @@ namespace Collide {
     return ev;
   }
 
+  /// Adjacency of edges over n bodies (CSR): the edges of body b are
+  /// adj[adj_start[b] .. adj_start[b + 1]), in increasing edge index.  fill is scratch.
+  inline void edge_adjacency(int n, const Edge *edges, int nedges, std::vector<int> &adj_start,
+                             std::vector<int> &adj, std::vector<int> &fill)
+  {
+    adj_start.assign(n + 1, 0);
+    for (int q = 0; q < nedges; ++q) {
+      adj_start[edges[q].i + 1]++;
+      adj_start[edges[q].j + 1]++;
+    }
+    for (int b = 0; b < n; ++b) adj_start[b + 1] += adj_start[b];
+    adj.resize(adj_start[n]);
+    fill.assign(adj_start.begin(), adj_start.end() - 1);
+    for (int q = 0; q < nedges; ++q) {
+      adj[fill[edges[q].i]++] = q;
+      adj[fill[edges[q].j]++] = q;
+    }
+  }
+
   /// Disjoint sets with path halving; the representative is the smallest index of a set.
   struct UnionFind {
     std::vector<int> parent;
@@ -201,18 +220,7 @@ namespace Collide {
 
     void build_adjacency(int n, const Edge *edges, int nedges)
     {
-      adj_start.assign(n + 1, 0);
-      for (int q = 0; q < nedges; ++q) {
-        adj_start[edges[q].i + 1]++;
-        adj_start[edges[q].j + 1]++;
-      }
-      for (int b = 0; b < n; ++b) adj_start[b + 1] += adj_start[b];
-      adj.resize(adj_start[n]);
-      fill.assign(adj_start.begin(), adj_start.end() - 1);
-      for (int q = 0; q < nedges; ++q) {
-        adj[fill[edges[q].i]++] = q;
-        adj[fill[edges[q].j]++] = q;
-      }
+      edge_adjacency(n, edges, nedges, adj_start, adj, fill);
     }
 
     Event best_event(const Body *bodies, const Edge *edges, const Params &p, int b) const

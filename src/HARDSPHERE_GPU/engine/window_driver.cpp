@@ -31,6 +31,16 @@ namespace Collide {
       return std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) - s;
     }
 
+    /// window_gap() of a local body and a foreign node (window start point fw), computed
+    /// with the lower ID first, as the node's owner computes it.
+    double foreign_gap(const Body &b, const double *fw, const ForeignEdge &fe,
+                       const ForeignNode &node, double s)
+    {
+      if (b.id < node.id) return window_gap(b.w0, fw, fe.shift, s);
+      const double ns[3] = {-fe.shift[0], -fe.shift[1], -fe.shift[2]};
+      return window_gap(fw, b.w0, ns, s);
+    }
+
     void pack_body(const Body &b, double *o)
     {
       for (int d = 0; d < 3; ++d) {
@@ -149,17 +159,10 @@ namespace Collide {
     fjoined.assign(fedges.size(), 0);
     for (size_t q = 0; q < fedges.size(); ++q) {
       const ForeignEdge &fe = fedges[q];
-      const Body &b = bodies[fe.body];
       const double *fw = &fstate[(size_t) 4 * fe.node];
-      const double s2 = b.radius + foreign[fe.node].radius;
-      double gap;
-      if (b.id < foreign[fe.node].id) {
-        gap = window_gap(b.w0, fw, fe.shift, s2);
-      } else {
-        const double ns[3] = {-fe.shift[0], -fe.shift[1], -fe.shift[2]};
-        gap = window_gap(fw, b.w0, ns, s2);
-      }
-      if (gap <= bound[fe.body] + fw[3] + MARGIN * s2) {
+      const double s2 = bodies[fe.body].radius + foreign[fe.node].radius;
+      if (foreign_gap(bodies[fe.body], fw, fe, foreign[fe.node], s2) <=
+          bound[fe.body] + fw[3] + MARGIN * s2) {
         fwin.push_back((int) q);
         fjoined[q] = 1;
       }
@@ -447,16 +450,10 @@ namespace Collide {
       const double *fw = &fstate[(size_t) 4 * fe.node];
       const double fx = fexc[fe.node];
       if (!(lexc[fe.body] > bound[fe.body]) && !(fx > fw[3])) continue;
-      const Body &b = bodies[fe.body];
-      const double s2 = b.radius + foreign[fe.node].radius;
-      double gap;
-      if (b.id < foreign[fe.node].id) {
-        gap = window_gap(b.w0, fw, fe.shift, s2);
-      } else {
-        const double ns[3] = {-fe.shift[0], -fe.shift[1], -fe.shift[2]};
-        gap = window_gap(fw, b.w0, ns, s2);
-      }
-      if (lexc[fe.body] + fx + MARGIN * s2 < gap) continue;
+      const double s2 = bodies[fe.body].radius + foreign[fe.node].radius;
+      if (lexc[fe.body] + fx + MARGIN * s2 <
+          foreign_gap(bodies[fe.body], fw, fe, foreign[fe.node], s2))
+        continue;
       fjoined[q] = 1;
       fwin.push_back((int) q);
       uf.unite(fe.body, nb + fe.node);

@@ -140,18 +140,7 @@ namespace Collide {
       const int nmembers = w.group_start[ng];
 
       // Adjacency of the window's edges, edges in increasing index for every body.
-      adj_start.assign(n + 1, 0);
-      for (int q = 0; q < w.nedges; ++q) {
-        adj_start[w.edges[q].i + 1]++;
-        adj_start[w.edges[q].j + 1]++;
-      }
-      for (int b = 0; b < n; ++b) adj_start[b + 1] += adj_start[b];
-      adj.resize(adj_start[n]);
-      fill.assign(adj_start.begin(), adj_start.end() - 1);
-      for (int q = 0; q < w.nedges; ++q) {
-        adj[fill[w.edges[q].i]++] = q;
-        adj[fill[w.edges[q].j]++] = q;
-      }
+      edge_adjacency(n, w.edges, w.nedges, adj_start, adj, fill);
 
       // +1: never a zero-byte allocation.
       const size_t ne = (size_t) (p.ntypes + 1) * (p.ntypes + 1);
