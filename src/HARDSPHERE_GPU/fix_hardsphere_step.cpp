@@ -155,10 +155,17 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
   const double *prd = domain->prd;
 
   body_of.assign(nlocal, -1);
-  bodies.clear();
+  int nb = 0;
+  for (int i = 0; i < nlocal; ++i)
+    if (mask[i] & groupbit) body_of[i] = nb++;
+  // Capacity with slack, as atoms migrate between ranks every step.
+  if (bodies.capacity() < (size_t) nb) bodies.reserve(nb + nb / 8 + 64);
+  bodies.resize(nb);
+  // A sphere this close to a wall is tested exactly for overlap below.
+  bool near_wall = false;
   for (int i = 0; i < nlocal; ++i) {
-    if (!(mask[i] & groupbit)) continue;
-    Body b;
+    if (body_of[i] < 0) continue;
+    Body &b = bodies[body_of[i]];
     std::memset(&b, 0, sizeof(b));
     for (int d = 0; d < 3; ++d) {
       b.v[d] = v[i][d];
@@ -172,8 +179,13 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
     b.id = (long) tag[i];
     b.type = type[i];
     b.owner = i;
-    body_of[i] = (int) bodies.size();
-    bodies.push_back(b);
+    for (int fc = 0; fc < HSGPU::Collide::NFACES; ++fc)
+      if (walls.on[fc]) {
+        const int d = fc / 2;
+        const double pos = (fc & 1) ? domain->boxhi[d] : domain->boxlo[d];
+        const double s = HSGPU::Collide::face_sign(fc);
+        if (s * (b.X0[d] - pos) < b.radius * (1.0 + 1e-6)) near_wall = true;
+      }
   }
 
   // Ghosts of atoms owned by other ranks: one foreign node per atom ID.
@@ -202,28 +214,26 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
   // (the stale ghost coordinates only tell which image).
   // Per search point: its start point (raw owner coordinates, for the canonical nearest-image
   // separation), radius, ID, body (own atom or an image of one) or foreign node.
-  spos.clear();
-  srad.clear();
-  sraw.clear();
-  sbound.clear();
-  sid.clear();
-  sbody.clear();
-  snode.clear();
-  sidx.clear();
-  for (int b = 0; b < (int) bodies.size(); ++b) {
+  const size_t npmax = (size_t) nb + (size_t) (nall - nlocal);
+  for (std::vector<double> *w : {&spos, &sraw})
+    if (w->size() < 3 * npmax) w->resize(3 * npmax);
+  for (std::vector<double> *w : {&srad, &sbound})
+    if (w->size() < npmax) w->resize(npmax);
+  for (std::vector<int> *w : {&sbody, &snode, &sidx})
+    if (w->size() < npmax) w->resize(npmax);
+  if (sid.size() < npmax) sid.resize(npmax);
+  size_t np = 0;
+  for (int b = 0; b < nb; ++b, ++np) {
     const Body &bd = bodies[b];
-    for (int d = 0; d < 3; ++d) {
-      spos.push_back(bd.X0[d]);
-      sraw.push_back(bd.X0[d]);
-    }
-    srad.push_back(bd.radius);
-    sbound.push_back(gdata[(size_t) NFWD * bd.owner + 9]);
-    sid.push_back((tagint) bd.id);
-    sbody.push_back(b);
-    snode.push_back(-1);
-    sidx.push_back(bd.owner);
+    for (int d = 0; d < 3; ++d) spos[3 * np + d] = sraw[3 * np + d] = bd.X0[d];
+    srad[np] = bd.radius;
+    sbound[np] = gdata[(size_t) NFWD * bd.owner + 9];
+    sid[np] = (tagint) bd.id;
+    sbody[np] = b;
+    snode[np] = -1;
+    sidx[np] = bd.owner;
   }
-  const int nsearch = (int) bodies.size();
+  const int nsearch = nb;
   for (int j = nlocal; j < nall; ++j) {
     if (!(mask[j] & groupbit)) continue;
     const double *g = &gdata[(size_t) NFWD * j];
@@ -232,21 +242,26 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
     if (bj < 0 && node < 0) continue;
     for (int d = 0; d < 3; ++d) {
       const double p = g[d] - g[3 + d] * drift_dt;
-      sraw.push_back(p);
-      spos.push_back(periodic[d] ? p + std::nearbyint((x[j][d] - p) / prd[d]) * prd[d] : p);
+      sraw[3 * np + d] = p;
+      spos[3 * np + d] = periodic[d] ? p + std::nearbyint((x[j][d] - p) / prd[d]) * prd[d] : p;
     }
-    srad.push_back(g[6]);
-    sbound.push_back(g[9]);
-    sid.push_back(tag[j]);
-    sbody.push_back(bj);
-    snode.push_back(node);
-    sidx.push_back(j);
+    srad[np] = g[6];
+    sbound[np] = g[9];
+    sid[np] = tag[j];
+    sbody[np] = bj;
+    snode[np] = node;
+    sidx[np] = j;
+    ++np;
   }
+  spos.resize(3 * np);
+  sraw.resize(3 * np);
+  for (std::vector<double> *w : {&srad, &sbound}) w->resize(np);
+  for (std::vector<int> *w : {&sbody, &snode, &sidx}) w->resize(np);
+  sid.resize(np);
   // Candidates: pairs within their radii plus their bounds (the search's radii are r + bound,
   // with a margin for the search's own rounding; the exact test follows).
   spairs.clear();
   {
-    const size_t np = sid.size();
     sreach.resize(np);
     double rm = 0.0;
     for (size_t k = 0; k < np; ++k) {
@@ -259,6 +274,7 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
   edges.clear();
   fedges.clear();
   iedges.clear();
+  bool maybe_overlap = false;
   for (size_t k = 0; k < spairs.size(); k += 2) {
     const int a = spairs[k], c = spairs[k + 1];    // a is one of my bodies
     const int bi = sbody[a], bj = sbody[c], node = snode[c];
@@ -270,7 +286,11 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
     HSGPU::Collide::nearest_image_separation(&sraw[3 * (size_t) lo], &sraw[3 * (size_t) hi], prd,
                                              periodic, r, sh);
     const double range = (srad[lo] + srad[hi]) + (sbound[lo] + sbound[hi]);
-    if (r[0] * r[0] + r[1] * r[1] + r[2] * r[2] > range * range) continue;
+    const double d2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+    if (d2 > range * range) continue;
+    // Could be an overlap (the exact test below runs only if some pair is this close).
+    const double near = (srad[lo] + srad[hi]) * (1.0 + 1e-6);
+    if (d2 < near * near) maybe_overlap = true;
     if (bj >= 0) {
       Edge e;
       e.i = swap ? bj : bi;
@@ -349,18 +369,20 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
       if (bj >= 0) push_dx[(size_t) 3 * bodies[bj].owner + d] -= wj * delta * n[d];
     }
   };
-  for (const Edge &e : edges)
-    pair_overlap(bodies[e.i], bodies[e.j].X0, bodies[e.j].radius, bodies[e.j].mass,
-                 (tagint) bodies[e.j].id, e.j);
-  for (const ForeignEdge &fe : fedges) {
-    const double *g = &gdata[(size_t) NFWD * fe.ghost];
-    double X0j[3];
-    for (int d = 0; d < 3; ++d) X0j[d] = g[d] - g[3 + d] * drift_dt;
-    pair_overlap(bodies[fe.body], X0j, g[6], rmass[fe.ghost], foreign_tag[fe.node], -1);
+  if (maybe_overlap) {
+    for (const Edge &e : edges)
+      pair_overlap(bodies[e.i], bodies[e.j].X0, bodies[e.j].radius, bodies[e.j].mass,
+                   (tagint) bodies[e.j].id, e.j);
+    for (const ForeignEdge &fe : fedges) {
+      const double *g = &gdata[(size_t) NFWD * fe.ghost];
+      double X0j[3];
+      for (int d = 0; d < 3; ++d) X0j[d] = g[d] - g[3 + d] * drift_dt;
+      pair_overlap(bodies[fe.body], X0j, g[6], rmass[fe.ghost], foreign_tag[fe.node], -1);
+    }
   }
-  t_search += MPI_Wtime() - t_start;
-  for (const Body &b : bodies)
+  for (size_t k = 0; near_wall && k < bodies.size(); ++k)
     for (int fc = 0; fc < HSGPU::Collide::NFACES; ++fc) {
+      const Body &b = bodies[k];
       if (!walls.on[fc]) continue;
       const int d = fc / 2;
       const double s = HSGPU::Collide::face_sign(fc);
@@ -371,6 +393,7 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
       if (collect_pushes)
         push_dx[(size_t) 3 * b.owner + d] += s * (-gap + 4.0 * OVERLAP_TOL * b.radius);
     }
+  t_search += MPI_Wtime() - t_start;
   return found;
 }
 

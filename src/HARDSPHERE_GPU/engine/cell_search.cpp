@@ -63,33 +63,47 @@ namespace Collide {
         sorted[(size_t) 4 * k + 3] = rad[i];
       }
     }
-    // Searched points visited cell by cell, so that neighbouring rows stay in cache.
-    for (long cz = 0; cz < ncell[2]; ++cz)
-      for (long cy = 0; cy < ncell[1]; ++cy)
-        for (long cx = 0; cx < ncell[0]; ++cx) {
-          const long c = (cz * ncell[1] + cy) * ncell[0] + cx;
+    // Half stencil: each cell against itself (later points only) and its 13 neighbours that
+    // follow it in (z, y, x) order, so that every pair of points is tested once.  In the
+    // sorted order these are five contiguous ranges: the rest of the cell with the next cell
+    // of its row, the three cells of the next row, and three rows of three in the next layer.
+    // Pairs of two points that are not searched from (ghosts) are dropped.
+    const long nx = ncell[0], ny = ncell[1], nz = ncell[2];
+    for (long cz = 0; cz < nz; ++cz)
+      for (long cy = 0; cy < ny; ++cy)
+        for (long cx = 0; cx < nx; ++cx) {
+          const long c = (cz * ny + cy) * nx + cx;
+          const long xlo = std::max(0L, cx - 1), xhi = std::min(nx - 1, cx + 1);
+          int rlo[5], rhi[5], nr = 0;
+          auto add_row = [&](long y, long z) {
+            const long row = (z * ny + y) * nx;
+            rlo[nr] = start[row + xlo];
+            rhi[nr] = start[row + xhi + 1];
+            ++nr;
+          };
+          if (cy + 1 < ny) add_row(cy + 1, cz);
+          if (cz + 1 < nz)
+            for (long y = std::max(0L, cy - 1); y <= std::min(ny - 1, cy + 1); ++y) add_row(y, cz + 1);
+          const int own_end = start[(cz * ny + cy) * nx + xhi + 1];
           for (int ki = start[c]; ki < start[c + 1]; ++ki) {
             const int i = order[ki];
-            if (i >= nsearch) continue;
             const double *pi = &sorted[(size_t) 4 * ki];
             const double ri = pi[3] + extra;
-            for (long nz = std::max(0L, cz - 1); nz <= std::min(ncell[2] - 1, cz + 1); ++nz)
-              for (long ny = std::max(0L, cy - 1); ny <= std::min(ncell[1] - 1, cy + 1); ++ny) {
-                const long row = (nz * ncell[1] + ny) * ncell[0];
-                const int lo = start[row + std::max(0L, cx - 1)];
-                const int hi = start[row + std::min(ncell[0] - 1, cx + 1) + 1];
-                for (int k = lo; k < hi; ++k) {
-                  const double *q = &sorted[(size_t) 4 * k];
-                  const double dx = pi[0] - q[0], dy = pi[1] - q[1], dz = pi[2] - q[2];
-                  const double range = ri + q[3];
-                  if (dx * dx + dy * dy + dz * dz <= range * range) {
-                    const int j = order[k];
-                    if (j <= i) continue;
-                    pairs.push_back(i);
-                    pairs.push_back(j);
-                  }
+            auto scan = [&](int lo, int hi) {
+              for (int k = lo; k < hi; ++k) {
+                const double *q = &sorted[(size_t) 4 * k];
+                const double dx = pi[0] - q[0], dy = pi[1] - q[1], dz = pi[2] - q[2];
+                const double range = ri + q[3];
+                if (dx * dx + dy * dy + dz * dz <= range * range) {
+                  const int j = order[k];
+                  if (i >= nsearch && j >= nsearch) continue;
+                  pairs.push_back(std::min(i, j));
+                  pairs.push_back(std::max(i, j));
                 }
               }
+            };
+            scan(ki + 1, own_end);
+            for (int r = 0; r < nr; ++r) scan(rlo[r], rhi[r]);
           }
         }
   }

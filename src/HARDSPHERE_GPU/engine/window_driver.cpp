@@ -554,7 +554,10 @@ namespace Collide {
       }
 
       // Local groups, each with its own tally (a repair replaces a group's tally).
-      snap = bodies;
+      // The snapshot keeps its capacity with some slack: on several ranks the number of
+      // bodies changes every step, and a fresh allocation of this size costs page faults.
+      if (snap.capacity() < bodies.size()) snap.reserve(bodies.size() + bodies.size() / 8 + 64);
+      snap.assign(bodies.begin(), bodies.end());
       group_of.assign(nb, -1);
       for (int g = 0; g < nlocal_groups; ++g)
         for (int m = gstart[g]; m < gstart[g + 1]; ++m) group_of[gmembers[m]] = g;
