@@ -43,7 +43,8 @@ namespace {
 constexpr double NEVER_COLLIDED = -1.0e30;    // tlast of an atom that never collided
 const char *const FACES[HSGPU::Collide::NFACES] = {"xlo", "xhi", "ylo", "yhi", "zlo", "zhi"};
 constexpr int NVECTOR = 16;
-constexpr int RESTART_FORMAT = 2;    // global restart data: -format, count, values
+constexpr int DEFAULT_MAXPUSH = 1000;    // overlap push passes before giving up
+constexpr int RESTART_FORMAT = 2;        // global restart data: -format, count, values
 
 double restitution_arg(const char *arg, LAMMPS *lmp)
 {
@@ -57,11 +58,12 @@ double restitution_arg(const char *arg, LAMMPS *lmp)
 
 FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
     Fix(lmp, narg, arg), serial_order(0), nwindows_user(0), tc_user(-1.0), vmin(0.0),
-    maxevents_user(-1), maxevents_warn(0), overlap_push(0), reach_user(-1.0), rmax(0.0), reach(0.0),
-    list_cut(0.0), maxevents(0), tlast(nullptr), n_step(0.0), n_total(0.0), n_wall(0.0),
-    ke_total(0.0), max_events(0.0), events_total(0.0), n_redo(0.0), last_largest(0.0),
-    last_groups(0.0), last_windows(0.0), last_boundary(0.0), last_gathers(0.0), t_search(0.0),
-    t_resolve(0.0), n_repair(0.0), bound_floor(0.0), exchange(nullptr), fwd_nval(0), n_push(0.0)
+    maxevents_user(-1), maxevents_warn(0), overlap_push(0), maxpush(DEFAULT_MAXPUSH),
+    reach_user(-1.0), rmax(0.0), reach(0.0), list_cut(0.0), maxevents(0), tlast(nullptr),
+    n_step(0.0), n_total(0.0), n_wall(0.0), ke_total(0.0), max_events(0.0), events_total(0.0),
+    n_redo(0.0), last_largest(0.0), last_groups(0.0), last_windows(0.0), last_boundary(0.0),
+    last_gathers(0.0), t_search(0.0), t_resolve(0.0), n_repair(0.0), bound_floor(0.0),
+    exchange(nullptr), fwd_nval(0), n_push(0.0)
 {
   for (double &o : ovl) o = 0.0;
   vector_flag = 1;
@@ -103,7 +105,7 @@ FixHardSphere::~FixHardSphere()
 
 /* fix ID group hardsphere [restitution e] [restitution/pair I J e] [wall face e] ...
    [order parallel|serial] [tc t|auto] [vmin v] [maxevents N error|warn]
-   [overlap error|push] [reach d] */
+   [overlap error|push] [maxpush N] [reach d] */
 void FixHardSphere::parse(int narg, char **arg)
 {
   const int ntypes = atom->ntypes;
@@ -203,6 +205,11 @@ void FixHardSphere::parse(int narg, char **arg)
       else
         error->all(FLERR, "Fix hardsphere: overlap must be error or push, got {}", arg[iarg + 1]);
       iarg += 2;
+    } else if (strcmp(kw, "maxpush") == 0) {
+      need(1, kw);
+      maxpush = utils::inumeric(FLERR, arg[iarg + 1], false, lmp);
+      if (maxpush < 1) error->all(FLERR, "Fix hardsphere: maxpush must be >= 1");
+      iarg += 2;
     } else if (strcmp(kw, "reach") == 0) {
       need(1, kw);
       reach_user = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
@@ -224,7 +231,7 @@ void FixHardSphere::parse(int narg, char **arg)
 
 int FixHardSphere::setmask()
 {
-  return POST_INTEGRATE;
+  return POST_INTEGRATE | PRE_NEIGHBOR;
 }
 
 double FixHardSphere::current_tc() const

@@ -34,6 +34,7 @@ class FixHardSphere : public Fix {
   int setmask() override;
   void init() override;
   void setup(int) override;
+  void setup_pre_neighbor() override;
   void post_run() override;
   void post_integrate() override;
   double compute_vector(int) override;
@@ -64,6 +65,7 @@ class FixHardSphere : public Fix {
   bigint maxevents_user;    // cap on events per step, < 0: auto
   int maxevents_warn;       // 1: warn when capped, 0: error
   int overlap_push;         // 1: push overlapping pairs apart, 0: error
+  int maxpush;              // overlap push: relaxation passes before giving up
   double reach_user;        // largest distance an atom may move per step, <= 0: auto
 
   // --- derived in init() ----------------------------------------------------------------
@@ -137,6 +139,7 @@ class FixHardSphere : public Fix {
   std::vector<int> gmine;         // global body -> my body index, -1 when not mine
   std::vector<double> push_dx;    // overlap push per owned atom
   double ovl[5];                  // first overlap found: flag, id, id or wall, dist, s
+  double ovl_depth;               // deepest overlap found, relative to its contact distance
   double n_push;                  // overlaps pushed apart in total
   HSGPU::Collide::Resolver resolver;
   HSGPU::Collide::UnionFind uf;
@@ -147,8 +150,9 @@ class FixHardSphere : public Fix {
   void forward_state(double drift_dt);
   void step_budget();
   int build(double drift_dt, bool collect_pushes);
-  void report_overlap(int npush);
+  void report_overlap(int npush, int left);
   void prepare(double drift_dt);
+  void push_pass(double &moved);
   bool step_exact();
   void classify();
   void gather_boundary();

@@ -25,6 +25,7 @@
 #include "error.h"
 #include "force.h"
 #include "group.h"
+#include "neighbor.h"
 #include "update.h"
 #include "utils.h"
 
@@ -48,8 +49,10 @@ namespace {
 
 constexpr double NEVER_COLLIDED = -1.0e30;
 constexpr double OVERLAP_TOL = 1e-9;    // pairs closer than (1 - tol) x contact overlap
-constexpr int MAXPUSH = 20;             // overlap push passes before giving up
-constexpr int NSTATE = 15;              // doubles per body in the boundary exchange
+// overlap push moves a pair to this much beyond contact (relative): a margin well above the
+// overlap criterion lets the relaxation end in a few passes rather than creep up to it.
+constexpr double PUSH_MARGIN = 1e-6;
+constexpr int NSTATE = 15;    // doubles per body in the boundary exchange
 
 // Lexicographic order of overlap reports: lower atom ID first, walls (negative) first.
 bool before(double a1, double b1, double a2, double b2)
@@ -336,8 +339,11 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
   int found = 0;
   ovl[0] = 0.0;
   if (collect_pushes) push_dx.assign((size_t) 3 * nlocal, 0.0);
-  auto note = [&](double a, double b, double dist, double s) {
-    ++found;
+  ovl_depth = 0.0;
+  // counted: a pair of atoms on two ranks is counted by the rank of the lower ID only.
+  auto note = [&](double a, double b, double dist, double s, bool counted) {
+    if (counted) ++found;
+    ovl_depth = std::max(ovl_depth, 1.0 - dist / s);
     if (ovl[0] == 0.0 || before(a, b, ovl[1], ovl[2])) {
       ovl[0] = 1.0;
       ovl[1] = a;
@@ -355,14 +361,16 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
     const double lim = s * (1.0 - OVERLAP_TOL);
     if (!(d2 < lim * lim)) return;
     const double dist = std::sqrt(d2);
-    note((double) std::min((tagint) bi.id, tj), (double) std::max((tagint) bi.id, tj), dist, s);
+    note((double) std::min((tagint) bi.id, tj), (double) std::max((tagint) bi.id, tj), dist, s,
+         bj >= 0 || (tagint) bi.id < tj);
     if (!collect_pushes) return;
     // Mass-weighted push along the line of centres to just beyond contact: the centre of
-    // mass stays put.
-    double n[3] = {1.0, 0.0, 0.0};
+    // mass stays put.  Two centres at one point part along x, the lower ID upwards (on
+    // both ranks when the pair spans two).
+    double n[3] = {(tagint) bi.id < tj ? 1.0 : -1.0, 0.0, 0.0};
     if (dist > 0.0)
       for (int d = 0; d < 3; ++d) n[d] = r[d] / dist;
-    const double delta = s * (1.0 + 4.0 * OVERLAP_TOL) - dist;
+    const double delta = s * (1.0 + PUSH_MARGIN) - dist;
     const double wi = mj / (bi.mass + mj), wj = bi.mass / (bi.mass + mj);
     for (int d = 0; d < 3; ++d) {
       push_dx[(size_t) 3 * bi.owner + d] += wi * delta * n[d];
@@ -389,19 +397,21 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
       const double pos = (fc & 1) ? domain->boxhi[d] : domain->boxlo[d];
       const double gap = s * (b.X0[d] - pos) - b.radius;
       if (!(gap < -OVERLAP_TOL * b.radius)) continue;
-      note((double) b.id, (double) (-1 - fc), s * (b.X0[d] - pos), b.radius);
-      if (collect_pushes)
-        push_dx[(size_t) 3 * b.owner + d] += s * (-gap + 4.0 * OVERLAP_TOL * b.radius);
+      note((double) b.id, (double) (-1 - fc), s * (b.X0[d] - pos), b.radius, true);
+      if (collect_pushes) push_dx[(size_t) 3 * b.owner + d] += s * (-gap + PUSH_MARGIN * b.radius);
     }
   t_search += MPI_Wtime() - t_start;
   return found;
 }
 
-/* Stops with an error naming the overlap with the lowest atom IDs over all ranks. */
-void FixHardSphere::report_overlap(int npush)
+/* Stops with an error naming the overlap with the lowest atom IDs over all ranks; after
+   npush passes of overlap push, also how many overlaps were left and how deep. */
+void FixHardSphere::report_overlap(int npush, int left)
 {
   std::vector<double> all((size_t) 5 * comm->nprocs);
   MPI_Allgather(ovl, 5, MPI_DOUBLE, all.data(), 5, MPI_DOUBLE, world);
+  double depth = 0.0;
+  MPI_Allreduce(&ovl_depth, &depth, 1, MPI_DOUBLE, MPI_MAX, world);
   int best = -1;
   for (int p = 0; p < comm->nprocs; ++p) {
     const double *o = &all[(size_t) 5 * p];
@@ -411,38 +421,102 @@ void FixHardSphere::report_overlap(int npush)
   }
   const double *o = &all[(size_t) 5 * best];
   const std::string after =
-      npush > 0 ? fmt::format(" after {} passes of 'overlap push'", npush) : std::string();
+      npush > 0 ? fmt::format(" after {} passes of 'overlap push' ({} overlaps left, the deepest "
+                              "{:.3g} of its contact distance; raise 'maxpush' or start from a "
+                              "looser configuration)",
+                              npush, left, depth)
+                : std::string();
   if (o[2] < 0) {
     const int fc = -1 - (int) o[2];
     const char *names[6] = {"xlo", "xhi", "ylo", "yhi", "zlo", "zhi"};
     error->all(FLERR,
-               "Fix hardsphere: atom {} overlaps wall {} at step {}{}: its centre is {:.10g} "
-               "from the wall, its radius {:.10g}",
-               (tagint) o[1], names[fc], update->ntimestep, after, o[3], o[4]);
+               "Fix hardsphere: atom {} overlaps wall {} at step {}: its centre is {:.10g} from "
+               "the wall, its radius {:.10g}{}",
+               (tagint) o[1], names[fc], update->ntimestep, o[3], o[4], after);
   }
   error->all(FLERR,
-             "Fix hardsphere: atoms {} and {} overlap at step {}{}: centre distance {:.10g}, "
+             "Fix hardsphere: atoms {} and {} overlap at step {}: centre distance {:.10g}, "
              "contact distance {:.10g}{}",
-             (tagint) o[1], (tagint) o[2], update->ntimestep, after, o[3], o[4],
-             overlap_push ? "" : " (use the fix's 'overlap push' to push overlaps apart)");
+             (tagint) o[1], (tagint) o[2], update->ntimestep, o[3], o[4],
+             overlap_push ? after : " (use the fix's 'overlap push' to push overlaps apart)");
+}
+
+/* One pass of overlap push: the pushes collected by the last build() applied to the owned
+   atoms.  `moved` gets the largest push of an atom in this pass (over all ranks). */
+void FixHardSphere::push_pass(double &moved)
+{
+  double **x = atom->x;
+  double m = 0.0;
+  for (const Body &b : bodies) {
+    const double *u = &push_dx[(size_t) 3 * b.owner];
+    for (int d = 0; d < 3; ++d) x[b.owner][d] += u[d];
+    m = std::max(m, u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+  }
+  MPI_Allreduce(&m, &moved, 1, MPI_DOUBLE, MPI_MAX, world);
+  moved = std::sqrt(moved);
 }
 
 /* Checks for overlaps at the start points (x - v drift_dt); pushes them apart or stops.
-   Leaves bodies and edges built for budget D. */
+   Leaves bodies and edges built for budget D.  (Overlaps of the starting configuration are
+   relaxed in setup_pre_neighbor(), where atoms may still migrate; this catches what other
+   fixes or a run without setup made.) */
 void FixHardSphere::prepare(double drift_dt)
 {
   for (int pass = 0;; ++pass) {
     forward_state(drift_dt);
-    const int found = build(drift_dt, overlap_push && pass < MAXPUSH);
+    const int found = build(drift_dt, overlap_push && pass < maxpush);
     int any = 0;
     MPI_Allreduce(&found, &any, 1, MPI_INT, MPI_SUM, world);
     if (!any) return;
-    if (!overlap_push || pass >= MAXPUSH) report_overlap(pass);
-    double **x = atom->x;
-    for (const Body &b : bodies)
-      for (int d = 0; d < 3; ++d) x[b.owner][d] += push_dx[(size_t) 3 * b.owner + d];
+    if (!overlap_push || pass >= maxpush) report_overlap(pass, any);
+    double moved = 0.0;
+    push_pass(moved);
     n_push += any;
   }
+}
+
+/* overlap push on the starting configuration, before LAMMPS builds its neighbor lists and
+   computes the forces: passes of mass-weighted pushes (a Jacobi relaxation of the overlaps)
+   until none is left.  Whenever the pushes since the last exchange add up to half the neighbor
+   skin, the atoms are wrapped, exchanged between ranks and their ghosts built anew (as
+   Verlet::setup() does just before this), so that the ghosts keep covering the search. */
+void FixHardSphere::setup_pre_neighbor()
+{
+  if (!overlap_push) return;    // overlap error: setup() stops at the first overlap
+  bound_floor = 0.0;
+  double since = 0.0, total = 0.0;
+  long pushed = 0;
+  int pass = 0, migrations = 0;
+  for (;; ++pass) {
+    sboost.assign(atom->nlocal, 0.0);
+    forward_state(0.0);
+    const int found = build(0.0, pass < maxpush);
+    int any = 0;
+    MPI_Allreduce(&found, &any, 1, MPI_INT, MPI_SUM, world);
+    if (!any) break;
+    if (pass >= maxpush) report_overlap(pass, any);
+    double moved = 0.0;
+    push_pass(moved);
+    pushed += any;
+    since += moved;
+    total += moved;
+    if (since > 0.5 * neighbor->skin) {
+      domain->pbc();
+      domain->reset_box();
+      comm->setup();
+      if (neighbor->style) neighbor->setup_bins();
+      comm->exchange();
+      comm->borders();
+      since = 0.0;
+      ++migrations;
+    }
+  }
+  n_push += (double) pushed;
+  if (pass > 0 && comm->me == 0)
+    utils::logmesg(lmp,
+                   "Fix hardsphere: overlap push separated {} overlaps in {} passes (atoms moved "
+                   "at most {:.4g} in all; {} exchanges of atoms between the passes)\n",
+                   pushed, pass, total, migrations);
 }
 
 /* Components of the edge graph (foreign nodes included): those touching a foreign node are

@@ -24,8 +24,7 @@ struct Cloud {
 };
 
 // n points uniform in a box of edge len (flat in z when flat), radii in [rlo, rhi].
-Cloud make_cloud(int n, int nsearch, double len, double rlo, double rhi, bool flat,
-                 unsigned seed)
+Cloud make_cloud(int n, int nsearch, double len, double rlo, double rhi, bool flat, unsigned seed)
 {
   std::mt19937 gen(seed);
   std::uniform_real_distribution<double> u(0.0, 1.0);
