@@ -32,6 +32,8 @@
 # groups merged and resolved again in the run; spanning: atoms per step in groups that span
 # ranks; gathers: per step.  All from the line fix hardsphere logs at the end of a run.
 # HSGPU_BENCH_ARGS (e.g. "-var dt 0.01") is passed to the seed configurations' runs.
+# HSGPU_BENCH_GPU=1 adds rows of order "parallel-cuda": the default order with the fix's CUDA
+# collision backend ('gpu yes' appended to the fix hardsphere line of a copy of each input).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
@@ -61,6 +63,9 @@ if [[ " $configs " == *" fluid "* ]]; then
   cp "$scenes/in.fluid" "$work/in.fluid"
 fi
 cd "$work"
+for f in in.*; do
+  sed 's/^\(fix  *hs  *all  *hardsphere.*[^&]\)$/\1 gpu yes/' "$f" > "$f.cuda"
+done
 
 # run <config> <N> <order> <plugin> -> one table row
 run() {
@@ -77,7 +82,9 @@ run() {
     # shellcheck disable=SC2206
     [ -n "${HSGPU_BENCH_ARGS:-}" ] && args+=($HSGPU_BENCH_ARGS)
   fi
-  if ! "${launcher[@]}" "$lmp" -in "in.$config" -var plugin "$plug" "${args[@]}" -log "$log" \
+  local input=in.$config
+  [ "$order" = parallel-cuda ] && input=in.$config.cuda
+  if ! "${launcher[@]}" "$lmp" -in "$input" -var plugin "$plug" "${args[@]}" -log "$log" \
       -echo none -screen none >/dev/null 2>&1; then
     echo "| $config | $n | $np | $order | failed | | | | | | | | | | |"
     return
@@ -127,6 +134,7 @@ for config in $configs; do
   n=1024
   while [ "$n" -le "$nmax" ]; do
     run "$config" "$n" parallel "$plugin"
+    [ "${HSGPU_BENCH_GPU:-0}" = 1 ] && run "$config" "$n" parallel-cuda "$plugin"
     if [ "$config" != fluid ] && [ "$n" -le "$serialmax" ]; then
       run "$config" "$n" serial "$plugin"
     fi

@@ -14,6 +14,7 @@
      7 largest group, last step         14 overlaps pushed apart, in total (ext)
                                         15 groups merged after a missed contact, in total
                                         16 gathers of groups spanning ranks, last step
+                                        17 CUDA device of rank 0's collision backend, -1: CPU
 ------------------------------------------------------------------------------------- */
 
 #include "fix_hardsphere.h"
@@ -29,8 +30,13 @@
 #include "update.h"
 #include "utils.h"
 
-#include "lmp_compat.h"
 #include "fix_hardsphere_exchange.h"
+#include "gpu/collision_backend_cuda.h"
+#include "gpu/device_info.cuh"
+#include "gpu_device_choice.h"
+#include "lmp_compat.h"
+
+#include <exception>
 
 #include <cmath>
 #include <cstring>
@@ -42,7 +48,7 @@ namespace {
 
 constexpr double NEVER_COLLIDED = -1.0e30;    // tlast of an atom that never collided
 const char *const FACES[HSGPU::Collide::NFACES] = {"xlo", "xhi", "ylo", "yhi", "zlo", "zhi"};
-constexpr int NVECTOR = 16;
+constexpr int NVECTOR = 17;
 constexpr int DEFAULT_MAXPUSH = 1000;    // overlap push passes before giving up
 constexpr int RESTART_FORMAT = 2;        // global restart data: -format, count, values
 
@@ -59,18 +65,19 @@ double restitution_arg(const char *arg, LAMMPS *lmp)
 FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
     Fix(lmp, narg, arg), serial_order(0), nwindows_user(0), tc_user(-1.0), vmin(0.0),
     maxevents_user(-1), maxevents_warn(0), overlap_push(0), maxpush(DEFAULT_MAXPUSH),
-    reach_user(-1.0), rmax(0.0), reach(0.0), list_cut(0.0), maxevents(0), tlast(nullptr),
-    n_step(0.0), n_total(0.0), n_wall(0.0), ke_total(0.0), max_events(0.0), events_total(0.0),
-    n_redo(0.0), last_largest(0.0), last_groups(0.0), last_windows(0.0), last_boundary(0.0),
-    last_gathers(0.0), t_search(0.0), t_resolve(0.0), n_repair(0.0), bound_floor(0.0),
-    exchange(nullptr), fwd_nval(0), n_push(0.0)
+    reach_user(-1.0), gpu_requested(0), device_request(-1), backend_device(-1), rmax(0.0),
+    reach(0.0), list_cut(0.0), maxevents(0), tlast(nullptr), n_step(0.0), n_total(0.0), n_wall(0.0),
+    ke_total(0.0), max_events(0.0), events_total(0.0), n_redo(0.0), last_largest(0.0),
+    last_groups(0.0), last_windows(0.0), last_boundary(0.0), last_gathers(0.0), t_search(0.0),
+    t_resolve(0.0), n_repair(0.0), bound_floor(0.0), exchange(nullptr), fwd_nval(0), n_push(0.0)
 {
   for (double &o : ovl) o = 0.0;
+  ovl_depth = 0.0;
   vector_flag = 1;
   size_vector = NVECTOR;
   global_freq = 1;
   extvector = -1;
-  extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0};
+  extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 0};
   virial_global_flag = 1;
   thermo_virial = 1;
   restart_global = 1;
@@ -84,7 +91,6 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
   if (!atom->tag_enable) error->all(FLERR, "Fix hardsphere requires atom IDs");
 
   parse(narg, arg);
-  backend = HSGPU::Collide::make_cpu_backend();
   exchange = new LammpsExchange(this);
 
   grow_arrays(atom->nmax);
@@ -105,7 +111,7 @@ FixHardSphere::~FixHardSphere()
 
 /* fix ID group hardsphere [restitution e] [restitution/pair I J e] [wall face e] ...
    [order parallel|serial] [tc t|auto] [vmin v] [maxevents N error|warn]
-   [overlap error|push] [maxpush N] [reach d] */
+   [overlap error|push] [maxpush N] [reach d] [gpu yes|no] [device auto|N] */
 void FixHardSphere::parse(int narg, char **arg)
 {
   const int ntypes = atom->ntypes;
@@ -210,6 +216,19 @@ void FixHardSphere::parse(int narg, char **arg)
       maxpush = utils::inumeric(FLERR, arg[iarg + 1], false, lmp);
       if (maxpush < 1) error->all(FLERR, "Fix hardsphere: maxpush must be >= 1");
       iarg += 2;
+    } else if (strcmp(kw, "gpu") == 0) {
+      need(1, kw);
+      gpu_requested = utils::logical(FLERR, arg[iarg + 1], false, lmp);
+      iarg += 2;
+    } else if (strcmp(kw, "device") == 0) {
+      need(1, kw);
+      if (strcmp(arg[iarg + 1], "auto") == 0) {
+        device_request = -1;
+      } else {
+        device_request = utils::inumeric(FLERR, arg[iarg + 1], false, lmp);
+        if (device_request < 0) error->all(FLERR, "Fix hardsphere: device must be auto or >= 0");
+      }
+      iarg += 2;
     } else if (strcmp(kw, "reach") == 0) {
       need(1, kw);
       reach_user = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
@@ -305,6 +324,32 @@ void FixHardSphere::init()
 
   maxevents = maxevents_user > 0 ? maxevents_user : 1000 + 100 * atom->natoms;
   wsettings.nwindows = nwindows_user;
+  setup_backend();
+}
+
+/* The collision backend: CUDA on this rank's device with 'gpu yes' (the device policy of
+   gpu_device_choice.h, shared with pair gravity: where any rank has no usable device all ranks
+   run the CPU backend and rank 0 warns), else the CPU one. */
+void FixHardSphere::setup_backend()
+{
+  int device = -1;
+  if (gpu_requested) device = hsgpu_choose_device(lmp, world, device_request, "Fix hardsphere");
+  if (device == backend_device && backend) return;
+  backend.reset();
+  if (device >= 0) {
+    try {
+      backend = HSGPU::Collide::make_cuda_backend(device);
+    } catch (std::exception &e) {
+      error->one(FLERR, "Fix hardsphere: cannot use CUDA device {}: {}", device, e.what());
+    }
+  } else {
+    backend = HSGPU::Collide::make_cpu_backend();
+  }
+  backend_device = device;
+  if (device >= 0 && comm->me == 0)
+    utils::logmesg(lmp, "Fix hardsphere: CUDA collision backend, rank 0 on device {} ({}){}\n",
+                   device, HSGPU::GPU::device_description(device),
+                   serial_order ? "; order serial runs on the host" : "");
 }
 
 double FixHardSphere::compute_vector(int n)
@@ -342,6 +387,8 @@ double FixHardSphere::compute_vector(int n)
     return n_repair;
   case 15:
     return last_gathers;
+  case 16:
+    return (double) backend_device;
   default:
     return 0.0;
   }

@@ -67,6 +67,9 @@ class FixHardSphere : public Fix {
   int overlap_push;         // 1: push overlapping pairs apart, 0: error
   int maxpush;              // overlap push: relaxation passes before giving up
   double reach_user;        // largest distance an atom may move per step, <= 0: auto
+  int gpu_requested;        // gpu yes: the CUDA collision backend where a device is usable
+  int device_request;       // CUDA device to use, < 0: auto (node-local rank)
+  int backend_device;       // device of the current backend, -1: the CPU backend
 
   // --- derived in init() ----------------------------------------------------------------
   double rmax;        // largest radius in the group
@@ -153,6 +156,7 @@ class FixHardSphere : public Fix {
   void report_overlap(int npush, int left);
   void prepare(double drift_dt);
   void push_pass(double &moved);
+  void setup_backend();
   bool step_exact();
   void classify();
   void gather_boundary();

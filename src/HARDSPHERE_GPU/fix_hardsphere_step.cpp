@@ -912,11 +912,13 @@ void FixHardSphere::post_run()
   if (r.steps == 0 || comm->me != 0) return;
   const double n = (double) r.steps;
   utils::logmesg(lmp,
-                 "Fix hardsphere ({} order): {} steps, {:.6g} collisions and {:.6g} events per "
+                 "Fix hardsphere ({} order, {} backend): {} steps, {:.6g} collisions and {:.6g} "
+                 "events per "
                  "step; largest group {:.0f} atoms, {:.3g} windows and {:.4g} groups per step, "
                  "{:.0f} repairs, {:.0f} steps redone; {:.4g} atoms per step in groups spanning "
                  "ranks, {:.3g} gathers per step; search {:.4g} s, resolve {:.4g} s\n",
-                 serial_order ? "serial" : "parallel", r.steps, r.pairs / n, r.events / n,
-                 r.largest, r.windows / n, r.groups / n, n_repair + r.repairs, n_redo + r.redos,
-                 r.boundary / n, r.gathers / n, t_search + r.t_search, t_resolve + r.t_resolve);
+                 serial_order ? "serial" : "parallel", serial_order ? "cpu" : backend->name(),
+                 r.steps, r.pairs / n, r.events / n, r.largest, r.windows / n, r.groups / n,
+                 n_repair + r.repairs, n_redo + r.redos, r.boundary / n, r.gathers / n,
+                 t_search + r.t_search, t_resolve + r.t_resolve);
 }

@@ -4,6 +4,8 @@
 // continuation and the input errors.
 #include "harness.h"
 
+#include "gpu/device_info.cuh"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -587,4 +589,40 @@ TEST(FixHardSphere, SettledPileStaysAtRestWithDefaultGuards)
   EXPECT_LT(std::fabs(top2 - top1), 0.05);
   EXPECT_LT(per_step, 8.0 * n);
   EXPECT_LT(lmp.fix_vector("hs", 4), 20.0 * n);
+}
+
+// Where no CUDA device is usable (or the plugin was built without CUDA), 'gpu yes' runs the CPU
+// backend (rank 0 warns): f_hs[17] says -1 and the trajectory is the CPU one.
+TEST(FixHardSphere, GpuRequestFallsBackToCpuWithoutDevice)
+{
+  if (HSGPU::GPU::device_count() > 0) GTEST_SKIP() << "a CUDA device is present";
+  const std::vector<std::string> setup = {"units lj",
+                                          "atom_style sphere",
+                                          "atom_modify map array",
+                                          "boundary p p p",
+                                          "lattice sc 0.5 origin 0.5 0.5 0.5",
+                                          "region box block 0 6 0 6 0 6",
+                                          "create_box 1 box",
+                                          "create_atoms 1 box",
+                                          "set type 1 diameter 1.0",
+                                          "set type 1 mass 1.0",
+                                          "velocity all create 1.0 4928459 loop geom",
+                                          "neigh_modify every 1 delay 0 check yes",
+                                          "fix 1 all nve/sphere",
+                                          "timestep 0.01"};
+  std::vector<double> x[2];
+  double coll[2], device[2];
+  for (int k = 0; k < 2; ++k) {
+    Lammps lmp;
+    lmp.commands(setup);
+    lmp.commands({k ? "fix hs all hardsphere gpu yes" : "fix hs all hardsphere", "run 100"});
+    x[k] = lmp.gather("x", 3);
+    coll[k] = lmp.fix_vector("hs", 1);
+    device[k] = lmp.fix_vector("hs", 16);    // f_hs[17]
+  }
+  EXPECT_EQ(device[0], -1.0);
+  EXPECT_EQ(device[1], -1.0);
+  EXPECT_GT(coll[0], 100.0);
+  EXPECT_EQ(coll[0], coll[1]);
+  EXPECT_EQ(max_abs_diff(x[0], x[1]), 0.0);
 }

@@ -4,6 +4,8 @@
 // 'comm_modify vel yes' is reported on more than one rank.
 #include "harness.h"
 
+#include "gpu/device_info.cuh"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -116,6 +118,14 @@ TEST(FixHardSphereMPI, FixedWindowsAgreeWithSingleRankSerial)
 TEST(FixHardSphereMPI, PairGravityWindowsAgreeWithSingleRankSerial)
 {
   compare("parallel", "serial", true);
+}
+
+// The CUDA collision backend on every rank (ranks share the node's devices) against the serial
+// loop on one rank.  Label gpu would skip the whole binary; this case skips itself instead.
+TEST(FixHardSphereMPI, CudaBackendOnAllRanksAgreesWithSingleRankSerial)
+{
+  if (HSGPU::GPU::device_count() == 0) GTEST_SKIP() << "no CUDA device on this machine";
+  compare("parallel gpu yes", "serial");
 }
 
 TEST(FixHardSphereMPI, SerialOrderOnAllRanksAgreesWithParallelOnOne)

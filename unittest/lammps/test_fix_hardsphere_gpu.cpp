@@ -1,0 +1,147 @@
+// fix hardsphere with 'gpu yes' (the CUDA collision backend) against 'gpu no' (the CPU
+// backend), through LAMMPS: the same input, so both see the same forces; positions,
+// velocities and collision counters must agree bit for bit after hundreds of steps.  Label
+// gpu: skipped where no CUDA device is usable.  f_hs[17] proves which backend ran.
+#include "harness.h"
+
+#include "gpu/device_info.cuh"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+using hsgpu_test::Lammps;
+
+namespace {
+
+struct Result {
+  std::vector<double> x, v;
+  std::vector<double> f;    // f_hs[1] .. f_hs[17]
+};
+
+Result run(const std::vector<std::string> &setup, const std::string &fix, const std::string &run)
+{
+  Lammps lmp;
+  lmp.commands(setup);
+  lmp.commands({fix, "thermo_modify norm no", run});
+  Result r;
+  r.x = lmp.gather("x", 3);
+  r.v = lmp.gather("v", 3);
+  for (int i = 0; i < 17; ++i) r.f.push_back(lmp.fix_vector("hs", i));
+  return r;
+}
+
+double max_abs_diff(const std::vector<double> &a, const std::vector<double> &b)
+{
+  double w = 0.0;
+  for (size_t i = 0; i < a.size(); ++i) w = std::max(w, std::fabs(a[i] - b[i]));
+  return w;
+}
+
+void expect_gpu_equals_cpu(const char *name, const std::vector<std::string> &setup,
+                           const std::string &fix, const std::string &steps, double min_coll)
+{
+  if (HSGPU::GPU::device_count() == 0) GTEST_SKIP() << "no CUDA device on this machine";
+  const Result cpu = run(setup, fix, steps);
+  const Result gpu = run(setup, fix + " gpu yes", steps);
+  EXPECT_EQ(cpu.f[16], -1.0) << "the CPU run used the CPU backend";
+  EXPECT_GE(gpu.f[16], 0.0) << "the GPU run used a CUDA device";
+  ASSERT_EQ(cpu.x.size(), gpu.x.size());
+  const double dx = max_abs_diff(cpu.x, gpu.x), dv = max_abs_diff(cpu.v, gpu.v);
+  EXPECT_EQ(dx, 0.0) << name;
+  EXPECT_EQ(dv, 0.0) << name;
+  for (int i : {1, 2, 4, 5}) EXPECT_EQ(cpu.f[i], gpu.f[i]) << name << ": f_hs[" << i + 1 << "]";
+  EXPECT_NEAR(cpu.f[3], gpu.f[3], 1e-12 * std::fabs(cpu.f[3])) << name << ": energy lost";
+  EXPECT_GT(cpu.f[1], min_coll) << name << ": too few collisions to mean anything";
+  std::printf("[ GPU      ] %s: %.0f collisions, %.0f wall collisions, largest group %.0f, "
+              "device %.0f: max |dx| %.2g |dv| %.2g\n",
+              name, cpu.f[1], cpu.f[2], cpu.f[6], gpu.f[16], dx, dv);
+}
+
+const std::vector<std::string> SPHERES = {"units lj", "atom_style sphere", "atom_modify map array",
+                                          "boundary p p f"};
+
+}    // namespace
+
+// The seed paper's third configuration (lattice3d, N = 4096), elastic, under gravity.
+TEST(FixHardSphereGpu, Lattice3dEqualsCpu)
+{
+  std::vector<std::string> s = SPHERES;
+  s.insert(s.end(),
+           {"region box block 0 32 0 32 0 36 units box", "create_box 1 box",
+            "lattice sc 0.125 origin 0.5 0.5 0.5", "region fill block 0 32 0 32 0 32 units box",
+            "create_atoms 1 region fill", "set type 1 diameter 1.0", "set type 1 mass 1.0",
+            "velocity all create 1.0 4928459 dist uniform loop geom",
+            "comm_modify cutoff 3.0 vel yes", "neigh_modify every 1 delay 0 check yes",
+            "fix 1 all nve/sphere", "fix g all gravity 0.1 vector 0 0 -1", "timestep 0.1"});
+  expect_gpu_equals_cpu("lattice3d", s,
+                        "fix hs all hardsphere wall zlo 1.0 wall zhi 1.0 reach 0.75", "run 200",
+                        20000);
+}
+
+// A fluid at packing fraction 0.5 (periodic, elastic, no gravity).
+TEST(FixHardSphereGpu, DenseFluidEqualsCpu)
+{
+  std::vector<std::string> s = SPHERES;
+  s[3] = "boundary p p p";
+  s.insert(s.end(),
+           {"lattice sc 0.954929658551372 origin 0.5 0.5 0.5",    // phi = 0.5
+            "region box block 0 10 0 10 0 10", "create_box 1 box", "create_atoms 1 box",
+            "set type 1 diameter 1.0", "set type 1 mass 1.0",
+            "velocity all create 1.0 4928459 loop geom", "comm_modify vel yes",
+            "neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere", "timestep 0.005"});
+  expect_gpu_equals_cpu("fluid at 0.5", s, "fix hs all hardsphere", "run 300", 20000);
+}
+
+// A poured inelastic pile of two sizes that comes to rest on the floor: resting contacts,
+// the TC guard, walls.
+TEST(FixHardSphereGpu, PouredInelasticPileEqualsCpu)
+{
+  std::vector<std::string> s = SPHERES;
+  s.insert(s.end(), {"region box block 0 9.6 0 9.6 0 30 units box", "create_box 2 box",
+                     "lattice sc 0.5787037037037037 origin 0.5 0.5 0.5",    // spacing 1.2
+                     "region block block 0 9.6 0 9.6 4 16 units box", "create_atoms 1 region block",
+                     "set type 1 type/fraction 2 0.4 20261121", "set type 1 diameter 1.0",
+                     "set type 2 diameter 0.8", "set group all density 1.9",
+                     "velocity all create 0.05 4928459 loop geom", "comm_modify vel yes",
+                     "neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere",
+                     "fix g all gravity 1.0 vector 0 0 -1", "timestep 0.01"});
+  expect_gpu_equals_cpu("poured pile", s,
+                        "fix hs all hardsphere restitution 0.6 restitution/pair 1 2 0.5 "
+                        "wall zlo 0.5 wall zhi 0.5",
+                        "run 600", 10000);
+}
+
+// Continuous polydispersity (diameters 0.5 ... 1.5, masses with the volume) under gravity.
+TEST(FixHardSphereGpu, PolydisperseMixtureEqualsCpu)
+{
+  std::vector<std::string> s = SPHERES;
+  s.insert(s.end(),
+           {"region box block 0 16 0 16 0 24 units box", "create_box 1 box",
+            "lattice sc 0.244140625 origin 0.5 0.5 0.5",    // spacing 1.6
+            "region fill block 0 16 0 16 2 20 units box", "create_atoms 1 region fill",
+            "variable d atom 0.5+0.5*(1.0+sin(12.9898*id))", "set group all diameter v_d",
+            "set group all density 1.9", "velocity all create 2.0 4928459 loop geom",
+            "comm_modify vel yes", "neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere",
+            "fix g all gravity 0.5 vector 0 0 -1", "timestep 0.01"});
+  expect_gpu_equals_cpu("polydisperse", s,
+                        "fix hs all hardsphere restitution 0.9 wall zlo 0.9 wall zhi 1.0",
+                        "run 400", 5000);
+}
+
+// Lennard-Jones attraction between the spheres: accelerations differ from atom to atom.
+TEST(FixHardSphereGpu, LennardJonesForcesEqualsCpu)
+{
+  std::vector<std::string> s = SPHERES;
+  s[3] = "boundary p p p";
+  s.insert(s.end(),
+           {"lattice sc 0.3 origin 0.5 0.5 0.5", "region box block 0 10 0 10 0 10",
+            "create_box 1 box", "create_atoms 1 box", "set type 1 diameter 1.0",
+            "set type 1 mass 1.0", "velocity all create 1.5 4928459 loop geom",
+            "pair_style lj/cut 2.5", "pair_coeff 1 1 0.5 1.0", "comm_modify vel yes",
+            "neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere", "timestep 0.005"});
+  expect_gpu_equals_cpu("lj/cut", s, "fix hs all hardsphere", "run 400", 2000);
+}
