@@ -218,7 +218,12 @@ void FixHardSphere::parse(int narg, char **arg)
       iarg += 2;
     } else if (strcmp(kw, "gpu") == 0) {
       need(1, kw);
-      gpu_requested = utils::logical(FLERR, arg[iarg + 1], false, lmp);
+      if (strcmp(arg[iarg + 1], "yes") == 0)
+        gpu_requested = 1;
+      else if (strcmp(arg[iarg + 1], "no") == 0)
+        gpu_requested = 0;
+      else
+        error->all(FLERR, "Fix hardsphere: gpu must be yes or no, got {}", arg[iarg + 1]);
       iarg += 2;
     } else if (strcmp(kw, "device") == 0) {
       need(1, kw);

@@ -482,6 +482,10 @@ TEST(FixHardSphere, BadInputStopsWithANamedError)
   }
   EXPECT_THAT(first_error({"fix hs all hardsphere overlap push maxpush 0"}),
               HasSubstr("maxpush must be >= 1"));
+  EXPECT_THAT(first_error({"fix hs all hardsphere gpu maybe"}),
+              HasSubstr("gpu must be yes or no, got maybe"));
+  EXPECT_THAT(first_error({"fix hs all hardsphere device -2"}),
+              HasSubstr("device must be auto or >= 0"));
 }
 
 // overlap push relaxes random placements (every sphere overlapping two or three others at
