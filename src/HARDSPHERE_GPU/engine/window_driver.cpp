@@ -218,7 +218,8 @@ namespace Collide {
     }
 
     send.clear();
-    std::vector<int> sent;
+    std::vector<int> &sent = bsent;
+    sent.clear();
     for (int b = 0; b < nb; ++b) {
       if (!isb[uf.find(b)]) continue;
       const size_t at = send.size();
@@ -297,16 +298,22 @@ namespace Collide {
       }
   }
 
-  /* Each local body's largest distance from its window start point, at the window end t1. */
-  void WindowDriver::excursions(std::vector<Body> &bodies, double t1)
+  /* Each local body's largest distance from its window start point, at the window end t1
+     (only the bodies in `only`, when given: those resolved again since the last call). */
+  void WindowDriver::excursions(std::vector<Body> &bodies, double t1, const std::vector<int> *only)
   {
     const int nb = (int) bodies.size();
     lexc.resize(nb);
     double p[3];
-    for (int b = 0; b < nb; ++b) {
+    auto note = [&](int b) {
       drift_position(bodies[b], t1, p);
       note_excursion(bodies[b], p);
       lexc[b] = std::sqrt(bodies[b].wexc2);
+    };
+    if (only) {
+      for (int b : *only) note(b);
+    } else {
+      for (int b = 0; b < nb; ++b) note(b);
     }
   }
 
@@ -581,7 +588,7 @@ namespace Collide {
           tbnd = tbnd_start;
           bl = bg = nbound = 0;
           resolve_boundary(bodies, fedges, foreign, p, t1, backend, ex, tbnd, bl, bg, nbound);
-          excursions(bodies, t1);
+          excursions(bodies, t1, &bsent);    // the others are as the local pass left them
           const long joined = join_missed_boundary(bodies, edges, fedges, foreign, ex);
           ++stats.gathers;
           if (joined == 0) break;

@@ -143,6 +143,7 @@ namespace Collide {
     std::vector<Body> gbodies;
     std::vector<Edge> gedges;
     std::vector<int> gmine, gstart2, gmembers2;
+    std::vector<int> bsent;    // local bodies of the boundary groups of the last gather
     std::vector<double> send, recv;
 
     long window_edges(std::vector<Body> &bodies, const std::vector<Edge> &edges,
@@ -153,7 +154,7 @@ namespace Collide {
                           const std::vector<ForeignNode> &foreign, const Params &p, double t1,
                           CollisionBackend &backend, Exchange &ex, Tally &tb, long &largest,
                           long &ngroups, long &nbound);
-    void excursions(std::vector<Body> &bodies, double t1);
+    void excursions(std::vector<Body> &bodies, double t1, const std::vector<int> *only = nullptr);
     long repair_local(std::vector<Body> &bodies, const std::vector<Edge> &edges, const Params &p,
                       double t1, CollisionBackend &backend, long events_before, long &repairs);
     long join_missed_boundary(std::vector<Body> &bodies, const std::vector<Edge> &edges,
