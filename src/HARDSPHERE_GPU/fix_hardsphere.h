@@ -155,7 +155,7 @@ class FixHardSphere : public Fix {
   int build(double drift_dt, bool collect_pushes);
   void report_overlap(int npush, int left);
   void prepare(double drift_dt);
-  void push_pass(double &moved);
+  int overlap_pass(double drift_dt, int pass, double &moved);
   void setup_backend();
   bool step_exact();
   void classify();

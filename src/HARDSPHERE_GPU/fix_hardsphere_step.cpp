@@ -441,10 +441,19 @@ void FixHardSphere::report_overlap(int npush, int left)
              overlap_push ? after : " (use the fix's 'overlap push' to push overlaps apart)");
 }
 
-/* One pass of overlap push: the pushes collected by the last build() applied to the owned
-   atoms.  `moved` gets the largest push of an atom in this pass (over all ranks). */
-void FixHardSphere::push_pass(double &moved)
+/* One pass over the overlaps at the start points (x - v drift_dt): forward state, bodies and
+   candidate pairs built anew.  Returns 0 when no overlap is left.  Otherwise stops with an
+   error (overlap error, or maxpush passes done) or pushes the overlaps apart, counts them in
+   n_push and returns their number, with `moved` the largest push of an atom (all ranks). */
+int FixHardSphere::overlap_pass(double drift_dt, int pass, double &moved)
 {
+  moved = 0.0;
+  forward_state(drift_dt);
+  const int found = build(drift_dt, overlap_push && pass < maxpush);
+  int any = 0;
+  MPI_Allreduce(&found, &any, 1, MPI_INT, MPI_SUM, world);
+  if (!any) return 0;
+  if (!overlap_push || pass >= maxpush) report_overlap(pass, any);
   double **x = atom->x;
   double m = 0.0;
   for (const Body &b : bodies) {
@@ -454,25 +463,18 @@ void FixHardSphere::push_pass(double &moved)
   }
   MPI_Allreduce(&m, &moved, 1, MPI_DOUBLE, MPI_MAX, world);
   moved = std::sqrt(moved);
+  n_push += any;
+  return any;
 }
 
-/* Checks for overlaps at the start points (x - v drift_dt); pushes them apart or stops.
-   Leaves bodies and edges built for budget D.  (Overlaps of the starting configuration are
-   relaxed in setup_pre_neighbor(), where atoms may still migrate; this catches what other
-   fixes or a run without setup made.) */
+/* Checks for overlaps at the start points; pushes them apart or stops.  Leaves bodies and
+   edges built for the step.  (Overlaps of the starting configuration are relaxed in
+   setup_pre_neighbor(), where atoms may still migrate; this catches what other fixes or a run
+   without setup made.) */
 void FixHardSphere::prepare(double drift_dt)
 {
-  for (int pass = 0;; ++pass) {
-    forward_state(drift_dt);
-    const int found = build(drift_dt, overlap_push && pass < maxpush);
-    int any = 0;
-    MPI_Allreduce(&found, &any, 1, MPI_INT, MPI_SUM, world);
-    if (!any) return;
-    if (!overlap_push || pass >= maxpush) report_overlap(pass, any);
-    double moved = 0.0;
-    push_pass(moved);
-    n_push += any;
-  }
+  double moved;
+  for (int pass = 0; overlap_pass(drift_dt, pass, moved) > 0; ++pass) {}
 }
 
 /* overlap push on the starting configuration, before LAMMPS builds its neighbor lists and
@@ -484,19 +486,11 @@ void FixHardSphere::setup_pre_neighbor()
 {
   if (!overlap_push) return;    // overlap error: setup() stops at the first overlap
   bound_floor = 0.0;
-  double since = 0.0, total = 0.0;
+  sboost.assign(atom->nlocal, 0.0);    // forward_state() extends it with zeros after exchanges
+  double since = 0.0, total = 0.0, moved = 0.0;
   long pushed = 0;
   int pass = 0, migrations = 0;
-  for (;; ++pass) {
-    sboost.assign(atom->nlocal, 0.0);
-    forward_state(0.0);
-    const int found = build(0.0, pass < maxpush);
-    int any = 0;
-    MPI_Allreduce(&found, &any, 1, MPI_INT, MPI_SUM, world);
-    if (!any) break;
-    if (pass >= maxpush) report_overlap(pass, any);
-    double moved = 0.0;
-    push_pass(moved);
+  for (int any; (any = overlap_pass(0.0, pass, moved)) > 0; ++pass) {
     pushed += any;
     since += moved;
     total += moved;
@@ -511,7 +505,6 @@ void FixHardSphere::setup_pre_neighbor()
       ++migrations;
     }
   }
-  n_push += (double) pushed;
   if (pass > 0 && comm->me == 0)
     utils::logmesg(lmp,
                    "Fix hardsphere: overlap push separated {} overlaps in {} passes (atoms moved "

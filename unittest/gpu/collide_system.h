@@ -203,6 +203,28 @@ struct StepOutcome {
   std::vector<long> most;    // per window, the backend's return value
 };
 
+/// A backend as the `resolve` argument of run_windows() and run_per_group().
+inline auto through(HSGPU::Collide::CollisionBackend &b)
+{
+  return [&b](const HSGPU::Collide::WindowWork &w, const HSGPU::Collide::Params &p,
+              HSGPU::Collide::Tally &t) { return b.resolve(w, p, t); };
+}
+
+/// The work of one window ending at t_end over `bodies` (a copy of sys.bodies): all of the
+/// system's edges and groups.
+inline HSGPU::Collide::WindowWork
+window_work(const CollideSystem &sys, std::vector<HSGPU::Collide::Body> &bodies, double t_end)
+{
+  return HSGPU::Collide::WindowWork{bodies.data(),
+                                    (int) bodies.size(),
+                                    sys.edges.data(),
+                                    (int) sys.edges.size(),
+                                    sys.gstart.data(),
+                                    sys.gmembers.data(),
+                                    (int) sys.gstart.size() - 1,
+                                    t_end};
+}
+
 /// Runs the step's groups through `resolve` in nwin equal windows: before each window every
 /// body's w0 is its drift position at the window's start and wexc2 = 0.  One Tally collects
 /// all windows (so maxevents counts across them).
@@ -219,14 +241,7 @@ StepOutcome run_windows(const CollideSystem &sys, const Params &p, int nwin, Res
       drift_position(b, t0, b.w0);
       b.wexc2 = 0.0;
     }
-    WindowWork w{out.bodies.data(),
-                 (int) out.bodies.size(),
-                 sys.edges.data(),
-                 (int) sys.edges.size(),
-                 sys.gstart.data(),
-                 sys.gmembers.data(),
-                 (int) sys.gstart.size() - 1,
-                 t1};
+    const WindowWork w = window_work(sys, out.bodies, t1);
     out.most.push_back(resolve(w, p, out.tally));
   }
   return out;
@@ -252,14 +267,7 @@ PerGroupOutcome run_per_group(const CollideSystem &sys, const Params &p, long ev
   out.groups.assign(ng, Tally());
   for (Tally &t : out.groups) t.events = -7;    // every entry must be written
   out.tally.events = events_before;
-  WindowWork w{out.bodies.data(),
-               (int) out.bodies.size(),
-               sys.edges.data(),
-               (int) sys.edges.size(),
-               sys.gstart.data(),
-               sys.gmembers.data(),
-               ng,
-               p.dt};
+  WindowWork w = window_work(sys, out.bodies, p.dt);
   w.group_tally = out.groups.data();
   out.most = resolve(w, p, out.tally);
   return out;

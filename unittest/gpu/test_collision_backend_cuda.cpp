@@ -18,7 +18,6 @@
 
 #include <cstdio>
 #include <cstring>
-#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -62,13 +61,6 @@ std::vector<Variant> variants()
   s.dt = 0.1;
   v.push_back({"floor_gravity_long_step", s});    // one group, ~1400 events, ~110 on walls
   return v;
-}
-
-using Resolve = std::function<long(const WindowWork &, const Params &, Tally &)>;
-
-Resolve through(CollisionBackend &b)
-{
-  return [&b](const WindowWork &w, const Params &p, Tally &t) { return b.resolve(w, p, t); };
 }
 
 TEST(CudaBackend, MatchesCpuBackendBitwise)

@@ -93,9 +93,7 @@ std::vector<Variant> variants()
 TEST(GroupLoop, MatchesCpuBackendBitwise)
 {
   auto cpu = make_cpu_backend();
-  auto cpu_resolve = [&](const WindowWork &w, const Params &p, Tally &t) {
-    return cpu->resolve(w, p, t);
-  };
+  const auto cpu_resolve = through(*cpu);
   for (const Variant &v : variants()) {
     const CollideSystem sys = make_collide_system(v.spec);
     for (int nwin : {1, 3}) {
@@ -139,9 +137,7 @@ TEST(GroupLoop, WindowsChangeNoBody)
 TEST(GroupLoop, CapMatchesCpuBackendBitwise)
 {
   auto cpu = make_cpu_backend();
-  auto cpu_resolve = [&](const WindowWork &w, const Params &p, Tally &t) {
-    return cpu->resolve(w, p, t);
-  };
+  const auto cpu_resolve = through(*cpu);
   for (const Variant &v : variants()) {
     const CollideSystem sys = make_collide_system(v.spec);
     const long total = run_windows(sys, sys.p, 1, cpu_resolve).tally.events;
@@ -167,9 +163,7 @@ TEST(GroupLoop, CapMatchesCpuBackendBitwise)
 TEST(GroupLoop, PerGroupTalliesMatchCpuBackend)
 {
   auto cpu = make_cpu_backend();
-  auto cpu_resolve = [&](const WindowWork &w, const Params &p, Tally &t) {
-    return cpu->resolve(w, p, t);
-  };
+  const auto cpu_resolve = through(*cpu);
   for (const Variant &v : variants()) {
     const CollideSystem sys = make_collide_system(v.spec);
     const long total = run_windows(sys, sys.p, 1, cpu_resolve).tally.events;

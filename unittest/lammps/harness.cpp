@@ -5,12 +5,30 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <stdexcept>
 #include <cstring>
 
 namespace hsgpu_test {
+
+double closest_pair_gap(const std::vector<double> &x, double diameter, const double period[3])
+{
+  const size_t n = x.size() / 3;
+  double closest = 1e300;
+  for (size_t i = 0; i < n; ++i)
+    for (size_t j = i + 1; j < n; ++j) {
+      double d2 = 0.0;
+      for (int d = 0; d < 3; ++d) {
+        double dx = x[3 * i + d] - x[3 * j + d];
+        if (period[d] > 0.0) dx -= period[d] * std::round(dx / period[d]);
+        d2 += dx * dx;
+      }
+      closest = std::min(closest, std::sqrt(d2) - diameter);
+    }
+  return closest;
+}
 
 const char *plugin_path()
 {

@@ -45,6 +45,11 @@ class Lammps {
 // Path of the plugin under test (set by CMake).
 const char *plugin_path();
 
+// All pairs of spheres of one diameter at x (3 per atom, as gather("x", 3) gives them): the
+// smallest centre distance minus the diameter, nearest image along each dimension d with
+// period[d] > 0.  Negative: an overlap.
+double closest_pair_gap(const std::vector<double> &x, double diameter, const double period[3]);
+
 }    // namespace hsgpu_test
 
 #endif

@@ -294,17 +294,8 @@ TEST(FixHardSphere, DenseRunHasNoOverlapsAndSerialEqualsParallel)
     windows[k] = lmp.fix_vector("hs", 8);
     // Explicit all-pairs check of the final state (nearest image in x and y).
     const long n = lmp.natoms();
-    double worst = 1e300;
-    for (long i = 0; i < n; ++i)
-      for (long j = i + 1; j < n; ++j) {
-        double d2 = 0;
-        for (int d = 0; d < 3; ++d) {
-          double dx = x[k][3 * i + d] - x[k][3 * j + d];
-          if (d < 2) dx -= 11.0 * std::round(dx / 11.0);
-          d2 += dx * dx;
-        }
-        worst = std::min(worst, std::sqrt(d2) - 1.0);
-      }
+    const double period[3] = {11.0, 11.0, 0.0};
+    const double worst = hsgpu_test::closest_pair_gap(x[k], 1.0, period);
     EXPECT_GT(worst, -1e-9) << order;
     std::printf("[ HS       ] dense, order %s: %ld spheres, 3000 steps, %.0f collisions (%.2f per "
                 "sphere per step), at most %.0f events in a step, closest pair %.3g from "
@@ -517,17 +508,8 @@ TEST(FixHardSphere, OverlapPushRelaxesRandomPlacement)
     EXPECT_GT(pushed, 600.0) << "the case should start with many overlaps";
     const auto x = lmp.gather("x", 3);
     const double L = std::cbrt(600 * 0.5235987755982988 / 0.3);
-    double worst = 1e300;
-    for (int i = 0; i < 600; ++i)
-      for (int j = i + 1; j < 600; ++j) {
-        double d2 = 0;
-        for (int d = 0; d < 3; ++d) {
-          double dx = x[3 * i + d] - x[3 * j + d];
-          if (d < 2) dx -= L * std::round(dx / L);
-          d2 += dx * dx;
-        }
-        worst = std::min(worst, std::sqrt(d2) - 1.0);
-      }
+    const double period[3] = {L, L, 0.0};
+    double worst = hsgpu_test::closest_pair_gap(x, 1.0, period);
     for (int i = 0; i < 600; ++i) {
       worst = std::min(worst, x[3 * i + 2] - 0.5);
       worst = std::min(worst, L - 0.5 - x[3 * i + 2]);
