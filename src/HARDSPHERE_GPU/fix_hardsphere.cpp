@@ -15,6 +15,8 @@
                                         15 groups merged after a missed contact, in total
                                         16 gathers of groups spanning ranks, last step
                                         17 CUDA device of rank 0's collision backend, -1: CPU
+                                        18 steps carried out whole on the device, in total
+                                        19 steps the device handed back to the host, in total
 ------------------------------------------------------------------------------------- */
 
 #include "fix_hardsphere.h"
@@ -32,6 +34,7 @@
 
 #include "fix_hardsphere_exchange.h"
 #include "gpu/collision_backend_cuda.h"
+#include "gpu/resident_step_cuda.h"
 #include "gpu/device_info.cuh"
 #include "gpu_device_choice.h"
 #include "lmp_compat.h"
@@ -48,7 +51,7 @@ namespace {
 
 constexpr double NEVER_COLLIDED = -1.0e30;    // tlast of an atom that never collided
 const char *const FACES[HSGPU::Collide::NFACES] = {"xlo", "xhi", "ylo", "yhi", "zlo", "zhi"};
-constexpr int NVECTOR = 17;
+constexpr int NVECTOR = 19;
 constexpr int DEFAULT_MAXPUSH = 1000;    // overlap push passes before giving up
 constexpr int RESTART_FORMAT = 2;        // global restart data: -format, count, values
 
@@ -69,7 +72,8 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
     reach(0.0), list_cut(0.0), maxevents(0), tlast(nullptr), n_step(0.0), n_total(0.0), n_wall(0.0),
     ke_total(0.0), max_events(0.0), events_total(0.0), n_redo(0.0), last_largest(0.0),
     last_groups(0.0), last_windows(0.0), last_boundary(0.0), last_gathers(0.0), t_search(0.0),
-    t_resolve(0.0), n_repair(0.0), bound_floor(0.0), exchange(nullptr), fwd_nval(0), n_push(0.0)
+    t_resolve(0.0), n_repair(0.0), n_resident(0.0), n_declined(0.0), bound_floor(0.0),
+    exchange(nullptr), fwd_nval(0), n_push(0.0)
 {
   for (double &o : ovl) o = 0.0;
   ovl_depth = 0.0;
@@ -77,7 +81,7 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
   size_vector = NVECTOR;
   global_freq = 1;
   extvector = -1;
-  extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 0};
+  extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0, 0};
   virial_global_flag = 1;
   thermo_virial = 1;
   restart_global = 1;
@@ -341,9 +345,14 @@ void FixHardSphere::setup_backend()
   if (gpu_requested) device = hsgpu_choose_device(lmp, world, device_request, "Fix hardsphere");
   if (device == backend_device && backend) return;
   backend.reset();
+  resident.reset();
   if (device >= 0) {
     try {
       backend = HSGPU::Collide::make_cuda_backend(device);
+      // One rank: whole steps on the device (on several, groups spanning ranks are gathered
+      // between the windows, which the host driver does).
+      if (comm->nprocs == 1 && !serial_order)
+        resident = HSGPU::Collide::make_cuda_resident_step(device);
     } catch (std::exception &e) {
       error->one(FLERR, "Fix hardsphere: cannot use CUDA device {}: {}", device, e.what());
     }
@@ -394,6 +403,10 @@ double FixHardSphere::compute_vector(int n)
     return last_gathers;
   case 16:
     return (double) backend_device;
+  case 17:
+    return n_resident;
+  case 18:
+    return n_declined;
   default:
     return 0.0;
   }
@@ -407,7 +420,7 @@ double FixHardSphere::compute_vector(int n)
 void FixHardSphere::write_restart(FILE *fp)
 {
   const double state[] = {-(double) RESTART_FORMAT,
-                          9.0,
+                          11.0,
                           n_total,
                           n_wall,
                           ke_total,
@@ -416,7 +429,9 @@ void FixHardSphere::write_restart(FILE *fp)
                           n_redo,
                           n_step,
                           n_push,
-                          n_repair};
+                          n_repair,
+                          n_resident,
+                          n_declined};
   const int count = (int) (sizeof(state) / sizeof(double));
   if (comm->me == 0) {
     const int size = (int) sizeof(state);
@@ -443,6 +458,10 @@ void FixHardSphere::restart(char *buf)
   n_step = v[6];
   if (count > 7) n_push = v[7];
   if (count > 8) n_repair = v[8];
+  if (count > 10) {
+    n_resident = v[9];
+    n_declined = v[10];
+  }
 }
 
 /* --- per-atom state: time of the last collision ----------------------------------------- */

@@ -20,6 +20,7 @@
 #include "core/trajectory.h"
 #include "engine/cell_search.h"
 #include "engine/collision_backend.h"
+#include "engine/resident_step.h"
 #include "engine/window_driver.h"
 
 #include <memory>
@@ -96,11 +97,15 @@ class FixHardSphere : public Fix {
   double t_search;         // seconds spent in the candidate search, in total
   double t_resolve;        // seconds spent resolving, in total
   double n_repair;         // groups merged and resolved again after a missed contact, in total
+  double n_resident;       // steps carried out whole on the device, in total
+  double n_declined;       // steps the device handed back to the host, in total
   struct RunSummary {      // this run, for the line post_run() logs
     bigint steps = 0;
     double pairs = 0.0, events = 0.0, largest = 0.0, windows = 0.0, groups = 0.0;
     double boundary = 0.0, gathers = 0.0, repairs = 0.0, redos = 0.0;
     double t_search = 0.0, t_resolve = 0.0;
+    bigint resident = 0;                     // steps carried out on the device
+    bigint declined[5] = {0, 0, 0, 0, 0};    // steps handed back, by ResidentOutcome
   } run_sum;
 
   // --- per-step work ----------------------------------------------------------------------
@@ -132,6 +137,8 @@ class FixHardSphere : public Fix {
   HSGPU::Collide::WindowDriver driver;
   HSGPU::Collide::WindowSettings wsettings;
   std::unique_ptr<HSGPU::Collide::CollisionBackend> backend;
+  // The CUDA backend's device-resident step (one rank, parallel order), else null.
+  std::unique_ptr<HSGPU::Collide::ResidentStep> resident;
   class LammpsExchange *exchange;
   int fwd_nval;                     // forward communication: 0 the state (NFWD), else xfwd's nval
   std::vector<double> xfwd;         // per-atom values for the driver's to_foreign
@@ -152,7 +159,10 @@ class FixHardSphere : public Fix {
   HSGPU::Collide::Params step_params() const;
   void forward_state(double drift_dt);
   void step_budget();
+  double step_bound(int i, double drift_dt) const;
+  bool gather_bodies(double drift_dt);
   int build(double drift_dt, bool collect_pushes);
+  bool step_resident(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   void report_overlap(int npush, int left);
   void prepare(double drift_dt);
   int overlap_pass(double drift_dt, int pass, double &moved);

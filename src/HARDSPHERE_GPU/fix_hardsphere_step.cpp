@@ -37,6 +37,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <exception>
 #include <mpi.h>
 
 using namespace LAMMPS_NS;
@@ -96,10 +97,18 @@ void FixHardSphere::forward_state(double drift_dt)
     g[6] = radius[i];
     g[7] = comm->me;
     g[8] = i;
-    const double speed = std::sqrt(v[i][0] * v[i][0] + v[i][1] * v[i][1] + v[i][2] * v[i][2]);
-    g[9] = std::min(std::max(std::max(2.0 * speed * drift_dt, bound_floor), sboost[i]), reach);
+    g[9] = step_bound(i, drift_dt);
   }
   HsgpuCompat::forward_comm(comm, this);
+}
+
+/* Atom i's displacement bound for the step: twice its drift, at least bound_floor (or what a
+   failed check of this step raised it to), at most the reach. */
+double FixHardSphere::step_bound(int i, double drift_dt) const
+{
+  const double *v = atom->v[i];
+  const double speed = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+  return std::min(std::max(std::max(2.0 * speed * drift_dt, bound_floor), sboost[i]), reach);
 }
 
 /* The step's checks on the fastest atom (radius growth, drift within the reach the ghost
@@ -142,20 +151,16 @@ void FixHardSphere::step_budget()
   bound_floor = 0.5 * least;
 }
 
-/* Bodies, foreign nodes, edges; overlaps are counted (and, with overlap push, the pushes
-   that separate them collected in push_dx).  Returns the number of overlaps found here. */
-int FixHardSphere::build(double drift_dt, bool collect_pushes)
+/* The bodies of the group's owned atoms at their start points x - v drift_dt.  Returns true
+   when a sphere is this close to a wall that the exact overlap test must run. */
+bool FixHardSphere::gather_bodies(double drift_dt)
 {
-  const int nlocal = atom->nlocal, nall = nlocal + atom->nghost;
-  const int me = comm->me;
+  const int nlocal = atom->nlocal;
   double **x = atom->x, **v = atom->v, **f = atom->f;
-  const double t_start = MPI_Wtime();
   const int *mask = atom->mask, *type = atom->type;
   const tagint *tag = atom->tag;
   const double *radius = atom->radius, *rmass = atom->rmass;
   const double ftm2v = force->ftm2v;
-  const int periodic[3] = {domain->xperiodic, domain->yperiodic, domain->zperiodic};
-  const double *prd = domain->prd;
 
   body_of.assign(nlocal, -1);
   int nb = 0;
@@ -190,6 +195,24 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
         if (s * (b.X0[d] - pos) < b.radius * (1.0 + 1e-6)) near_wall = true;
       }
   }
+  return near_wall;
+}
+
+/* Bodies, foreign nodes, edges; overlaps are counted (and, with overlap push, the pushes
+   that separate them collected in push_dx).  Returns the number of overlaps found here. */
+int FixHardSphere::build(double drift_dt, bool collect_pushes)
+{
+  const int nlocal = atom->nlocal, nall = nlocal + atom->nghost;
+  const int me = comm->me;
+  double **x = atom->x;
+  const double t_start = MPI_Wtime();
+  const int *mask = atom->mask;
+  const tagint *tag = atom->tag;
+  const double *rmass = atom->rmass;
+  const int periodic[3] = {domain->xperiodic, domain->yperiodic, domain->zperiodic};
+  const double *prd = domain->prd;
+  const bool near_wall = gather_bodies(drift_dt);
+  const int nb = (int) bodies.size();
 
   // Ghosts of atoms owned by other ranks: one foreign node per atom ID.
   foreign_of.assign(nall - nlocal, -1);
@@ -853,17 +876,69 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
   last_gathers = (double) stats.gathers;
 }
 
+/* The whole step on the device (engine/resident_step.h), where there is a resident step:
+   bodies and step bounds up, bodies back.  Returns false, with nothing changed, where the
+   device hands the step back (an overlap, a body beyond its bound, the event cap, a box too
+   small for its cells): the host then resolves it from the same start. */
+bool FixHardSphere::step_resident(Tally &mine, Tally &all)
+{
+  if (!resident || comm->nprocs > 1) return false;
+  const double dt = update->dt;
+  const double t_start = MPI_Wtime();
+  gather_bodies(dt);
+  const int nb = (int) bodies.size();
+  sbound.resize(nb);
+  for (int b = 0; b < nb; ++b) sbound[b] = step_bound(bodies[b].owner, dt);
+  HSGPU::Collide::ResidentBox box;
+  for (int d = 0; d < 3; ++d) {
+    box.lo[d] = domain->boxlo[d];
+    box.prd[d] = domain->prd[d];
+  }
+  box.periodic[0] = domain->xperiodic;
+  box.periodic[1] = domain->yperiodic;
+  box.periodic[2] = domain->zperiodic;
+  box.overlap_tol = OVERLAP_TOL;
+  box.reach = reach;
+  HSGPU::Collide::ResidentReport report;
+  mine = Tally();
+  const double t_gather = MPI_Wtime() - t_start;
+  try {
+    resident->run(bodies.data(), sbound.data(), nb, box, step_params(), wsettings, mine, report);
+  } catch (std::exception &e) {
+    error->one(FLERR, "Fix hardsphere: CUDA device {}: {}", backend_device, e.what());
+  }
+  t_search += t_gather + report.t_search;
+  t_resolve += report.t_resolve;
+  if (report.outcome != HSGPU::Collide::ResidentOutcome::done) {
+    n_declined += 1.0;
+    run_sum.declined[(int) report.outcome]++;
+    return false;
+  }
+  all = mine;
+  n_resident += 1.0;
+  run_sum.resident++;
+  n_repair += (double) report.stats.repairs;
+  last_largest = (double) report.stats.largest_group;
+  last_groups = (double) report.stats.groups;
+  last_windows = (double) report.stats.windows;
+  last_boundary = 0.0;
+  last_gathers = 0.0;
+  return true;
+}
+
 void FixHardSphere::post_integrate()
 {
   const double dt = update->dt;
   step_budget();
   sboost.assign(atom->nlocal, 0.0);
-  prepare(dt);
   Tally mine, all;
-  if (serial_order)
-    step_serial(mine, all);
-  else
-    step_windows(mine, all);
+  if (!step_resident(mine, all)) {
+    prepare(dt);
+    if (serial_order)
+      step_serial(mine, all);
+    else
+      step_windows(mine, all);
+  }
   if (all.capped) {
     const std::string msg = fmt::format(
         "Fix hardsphere: step {} needed more than maxevents = {} events ({} carried out); {}",
@@ -914,4 +989,15 @@ void FixHardSphere::post_run()
                  r.steps, r.pairs / n, r.events / n, r.largest, r.windows / n, r.groups / n,
                  n_repair + r.repairs, n_redo + r.redos, r.boundary / n, r.gathers / n,
                  t_search + r.t_search, t_resolve + r.t_resolve);
+  if (resident) {
+    using HSGPU::Collide::ResidentOutcome;
+    auto back = [&](ResidentOutcome o) { return r.declined[(int) o]; };
+    utils::logmesg(lmp,
+                   "Fix hardsphere: {} of {} steps carried out whole on the device; handed back "
+                   "to the host: {} (overlap at the start), {} (an atom beyond its step bound), "
+                   "{} (maxevents), {} (a periodic length shorter than three search cells)\n",
+                   r.resident, r.steps, back(ResidentOutcome::overlap),
+                   back(ResidentOutcome::excursion), back(ResidentOutcome::capped),
+                   back(ResidentOutcome::small_box));
+  }
 }

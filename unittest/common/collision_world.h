@@ -8,6 +8,7 @@
 
 #include "core/event_order.h"
 #include "engine/collision_backend.h"
+#include "engine/resident_step.h"
 #include "engine/window_driver.h"
 
 #include <gtest/gtest.h>
@@ -15,6 +16,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <memory>
 #include <random>
@@ -71,6 +73,8 @@ struct StepResult {
   int window_redo = 0;
   long max_component_events = 0;
   WindowStats stats;
+  int resident = 0;    // 1: a resident step carried the step out
+  int declined = 0;    // times a resident step handed the step back
 };
 
 // How a step is resolved: the global loop, components of the whole step, or time windows.
@@ -89,8 +93,10 @@ inline Order windows(int n, double bound_factor = 1.5, long target = 0)
 }
 
 // One velocity-Verlet step with hard-sphere collisions resolved in the given order (time
-// windows with the given backend, the CPU one by default).
-inline StepResult step(World &w, double dt, const Order &order, CollisionBackend *backend = nullptr)
+// windows with the given backend, the CPU one by default; with a resident step, time windows
+// on it, and where it declines the step, on the backend).
+inline StepResult step(World &w, double dt, const Order &order, CollisionBackend *backend = nullptr,
+                       ResidentStep *resident = nullptr)
 {
   const bool serial = order.kind == Order::Serial;
   const int n = (int) w.s.size();
@@ -131,11 +137,33 @@ inline StepResult step(World &w, double dt, const Order &order, CollisionBackend
   StepResult out;
   Resolver res;
   std::vector<Body> bodies;
-  static WindowDriver driver;
+  static WindowDriver driver, fallback;    // fallback: where a resident step declines
   static std::unique_ptr<CollisionBackend> cpu = make_cpu_backend();
   if (!backend) backend = cpu.get();
   SingleRank single;
   while (true) {
+    if (resident && order.kind == Order::Windows) {
+      bodies = start;
+      out.tally = Tally();
+      const std::vector<double> bound(n, D);
+      ResidentBox box;
+      for (int d = 0; d < 3; ++d) {
+        box.lo[d] = w.lo[d];
+        box.prd[d] = w.prd[d];
+        box.periodic[d] = w.periodic[d];
+      }
+      box.overlap_tol = 1e-9;
+      box.reach = 1e300;
+      ResidentReport rep;
+      resident->run(bodies.data(), bound.data(), n, box, p, order.windows, out.tally, rep);
+      if (rep.outcome == ResidentOutcome::done) {
+        out.resident = 1;
+        out.stats = rep.stats;
+        out.window_redo += (int) rep.stats.repairs;
+        break;
+      }
+      out.declined++;
+    }
     // Edges: pairs whose start points are within contact + 2 D (nearest image).
     std::vector<Edge> edges;
     for (int i = 0; i < n; ++i)
@@ -157,7 +185,8 @@ inline StepResult step(World &w, double dt, const Order &order, CollisionBackend
       res.resolve_components(bodies, edges, p, out.tally);
       out.max_component_events = res.max_component_events;
     } else {
-      driver.run(bodies, edges, {}, {}, p, order.windows, *backend, single, out.tally, out.stats);
+      (resident ? fallback : driver)
+          .run(bodies, edges, {}, {}, p, order.windows, *backend, single, out.tally, out.stats);
       out.window_redo += (int) out.stats.repairs;
     }
     EXPECT_EQ(out.tally.capped, 0) << "a step needed more than " << p.maxevents << " events";
@@ -275,18 +304,40 @@ inline std::vector<WindowCase> window_cases()
   return c;
 }
 
-// Runs every window case with each order against order serial, bit for bit.
-inline void check_windows_equal_serial(CollisionBackend *backend)
+// Runs every window case with each order against order serial, bit for bit (time windows on
+// the backend, or on the resident step where one is given).  With a resident step, also
+// against the CPU driver: the same windows, groups and largest group.
+inline void check_windows_equal_serial(CollisionBackend *backend, ResidentStep *resident = nullptr)
 {
   const Order orders[] = {windows(1),         windows(3),          windows(7),        windows(0),
                           windows(0, 1.5, 4), windows(0, 0.25, 0), windows(5, 0.1, 0)};
+  // HSGPU_WINDOW_CASE (a part of a case's name) runs only the matching cases.
+  const char *only = std::getenv("HSGPU_WINDOW_CASE");
   for (const WindowCase &wc : window_cases()) {
+    if (only && !std::strstr(wc.name, only)) continue;
     for (const Order &o : orders) {
-      World ws = wc.world, ww = wc.world;
-      long pairs = 0, redos = 0, largest = 0, nwin = 0;
+      World ws = wc.world, ww = wc.world, wd = wc.world;
+      long pairs = 0, redos = 0, largest = 0, nwin = 0, on_device = 0, declined = 0;
+      // The two choosers of windows see the same steps until a step is declined or redone.
+      bool same_choices = true;
       for (int it = 0; it < wc.steps; ++it) {
-        const StepResult rs = step(ws, wc.dt, SERIAL), rw = step(ww, wc.dt, o, backend);
-        ASSERT_EQ(rs.tally.events, rw.tally.events) << wc.name << ", step " << it;
+        const StepResult rs = step(ws, wc.dt, SERIAL), rw = step(ww, wc.dt, o, backend, resident);
+        if (resident) {
+          on_device += rw.resident;
+          declined += rw.declined;
+          const StepResult rd = step(wd, wc.dt, o);
+          same_choices = same_choices && rw.resident && !rw.declined && !rd.redo;
+          if (same_choices) {
+            ASSERT_EQ(rd.stats.windows, rw.stats.windows) << wc.name << ", step " << it;
+            ASSERT_EQ(rd.stats.largest_group, rw.stats.largest_group) << wc.name << ", step " << it;
+            ASSERT_EQ(rd.stats.groups, rw.stats.groups) << wc.name << ", step " << it;
+            ASSERT_NEAR(rd.tally.ke_lost, rw.tally.ke_lost, 1e-12 * std::fabs(rd.tally.ke_lost));
+          }
+        }
+        ASSERT_EQ(rs.tally.events, rw.tally.events)
+            << wc.name << ", step " << it << " (" << (rw.resident ? "resident step" : "driver")
+            << ", " << rw.stats.windows << " windows, largest group " << rw.stats.largest_group
+            << ", " << rw.stats.repairs << " repairs)";
         ASSERT_EQ(rs.tally.pair, rw.tally.pair) << wc.name << ", step " << it;
         ASSERT_EQ(rs.tally.wall, rw.tally.wall) << wc.name << ", step " << it;
         int diff = -1;
@@ -296,12 +347,18 @@ inline void check_windows_equal_serial(CollisionBackend *backend)
         largest = std::max(largest, rw.stats.largest_group);
         nwin += rw.stats.windows;
       }
-      std::printf(
-          "[ WINDOWS  ] %s backend, %s, windows %d, k %.2f, target %ld: %ld pair collisions, "
-          "largest group %ld of %zu, %.2f windows/step, %ld repairs\n",
-          backend ? backend->name().c_str() : "cpu", wc.name, o.windows.nwindows,
-          o.windows.bound_factor, o.windows.target_group, pairs, largest, wc.world.s.size(),
-          (double) nwin / wc.steps, redos);
+      std::printf("[ WINDOWS  ] %s, %s, windows %d, k %.2f, target %ld: %ld pair collisions, "
+                  "largest group %ld of %zu, %.2f windows/step, %ld repairs\n",
+                  resident  ? "resident step"
+                  : backend ? backend->name().c_str()
+                            : "cpu",
+                  wc.name, o.windows.nwindows, o.windows.bound_factor, o.windows.target_group,
+                  pairs, largest, wc.world.s.size(), (double) nwin / wc.steps, redos);
+      if (resident) {
+        std::printf("[ WINDOWS  ] resident step: %ld of %d steps on the device, %ld declined\n",
+                    on_device, wc.steps, declined);
+        EXPECT_GT(on_device, wc.steps / 2) << wc.name << ": most steps on the device";
+      }
       EXPECT_GT(pairs, 100) << wc.name;
       if (o.windows.bound_factor < 0.5) {
         EXPECT_GT(redos, 0) << "the repair path was not taken";

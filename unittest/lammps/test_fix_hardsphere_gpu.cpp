@@ -19,7 +19,7 @@ namespace {
 
 struct Result {
   std::vector<double> x, v;
-  std::vector<double> f;    // f_hs[1] .. f_hs[17]
+  std::vector<double> f;    // f_hs[1] .. f_hs[19]
 };
 
 Result run(const std::vector<std::string> &setup, const std::string &fix, const std::string &run)
@@ -30,7 +30,7 @@ Result run(const std::vector<std::string> &setup, const std::string &fix, const 
   Result r;
   r.x = lmp.gather("x", 3);
   r.v = lmp.gather("v", 3);
-  for (int i = 0; i < 17; ++i) r.f.push_back(lmp.fix_vector("hs", i));
+  for (int i = 0; i < 19; ++i) r.f.push_back(lmp.fix_vector("hs", i));
   return r;
 }
 
@@ -56,9 +56,15 @@ void expect_gpu_equals_cpu(const char *name, const std::vector<std::string> &set
   for (int i : {1, 2, 4, 5}) EXPECT_EQ(cpu.f[i], gpu.f[i]) << name << ": f_hs[" << i + 1 << "]";
   EXPECT_NEAR(cpu.f[3], gpu.f[3], 1e-12 * std::fabs(cpu.f[3])) << name << ": energy lost";
   EXPECT_GT(cpu.f[1], min_coll) << name << ": too few collisions to mean anything";
+  // One rank: the device-resident step carries out the steps it can finish alone.
+  const double nsteps = std::stod(steps.substr(4));
+  EXPECT_EQ(cpu.f[17] + cpu.f[18], 0.0) << name << ": no device steps on the CPU backend";
+  EXPECT_EQ(gpu.f[17] + gpu.f[18], nsteps) << name << ": every step tried on the device";
+  EXPECT_GT(gpu.f[17], 0.5 * nsteps) << name << ": most steps carried out on the device";
   std::printf("[ GPU      ] %s: %.0f collisions, %.0f wall collisions, largest group %.0f, "
-              "device %.0f: max |dx| %.2g |dv| %.2g\n",
-              name, cpu.f[1], cpu.f[2], cpu.f[6], gpu.f[16], dx, dv);
+              "device %.0f, %.0f of %.0f steps resident (%.0f handed back): max |dx| %.2g "
+              "|dv| %.2g\n",
+              name, cpu.f[1], cpu.f[2], cpu.f[6], gpu.f[16], gpu.f[17], nsteps, gpu.f[18], dx, dv);
 }
 
 const std::vector<std::string> SPHERES = {"units lj", "atom_style sphere", "atom_modify map array",

@@ -13,10 +13,6 @@ namespace Collide {
 
     /// Relative margin on contact distances for round-off in the join and check tests.
     constexpr double MARGIN = 1e-9;
-    /// Shortest adaptive window, as a fraction of dt.
-    constexpr double MIN_WINDOW = 1.0 / 16.0;
-    /// Steps after a window that could not meet the target before all lengths are tried again.
-    constexpr int STUCK_RETRY = 16;
     /// Doubles per body in the boundary exchange (pack_body), and per partner (id, shift).
     constexpr int NBODY = 29;
     constexpr int NPARTNER = 4;
@@ -499,7 +495,7 @@ namespace Collide {
     const int nb = (int) bodies.size();
     long counts[1] = {(long) nb};
     ex.sum(counts, 1);
-    const long target = s.target_group > 0 ? s.target_group : std::max(256L, counts[0] / 128);
+    const long target = WindowChooser::target(s, counts[0]);
     // Every body's window bound assumes at least a quarter of the fastest drift speed: a body
     // at rest that is hit moves about as fast as what hit it, and a bound of zero would make
     // every such hit a repair (in a settled pile, of the whole pile).
@@ -510,55 +506,14 @@ namespace Collide {
     stats = WindowStats();
     Tally tloc, tbnd;
     double t0 = 0.0;
-    double guess = last_delta > 0.0 ? std::min(2.0 * last_delta, dt) : dt;
+    chooser.start_step(dt);
     int k = 0;
     while (t0 < dt) {
-      double t1;
       long largest;
-      if (s.nwindows > 0) {
-        t1 = (k + 1 >= s.nwindows) ? dt : dt * (double) (k + 1) / (double) s.nwindows;
-        largest = window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex);
-      } else {
-        // Halve until the largest group is within the target, down to dt * MIN_WINDOW (dt / 16),
-        // and take the longest length whose largest group is within 5/4 of the smallest seen: in a
-        // pile, whose touching bodies stay joined however short the window, that is the longest
-        // tried.  After such a window ("stuck") the rest of the step is one window, and the next
-        // step tries its full length and one halving only, exploring all lengths again every
-        // STUCK_RETRY steps.
-        t1 = t0 + guess;
-        if (t1 > dt * (1.0 - 1e-9)) t1 = dt;
-        if (stuck_left > 0 && k > 0) t1 = dt;
-        largest = window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex);
-        if (!(stuck_left > 0 && k > 0)) {
-          tried.clear();
-          tried.emplace_back(t1, largest);
-          int halvings = stuck_left > 0 ? 1 : 64;
-          while (largest > target && t1 - t0 > dt * MIN_WINDOW && halvings-- > 0) {
-            t1 = t0 + 0.5 * (t1 - t0);
-            largest = window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex);
-            tried.emplace_back(t1, largest);
-          }
-          if (largest > target) {
-            long least = largest;
-            for (const auto &tl : tried) least = std::min(least, tl.second);
-            size_t pick = 0;
-            while (4 * tried[pick].second > 5 * least) ++pick;
-            if (pick + 1 < tried.size()) {
-              t1 = tried[pick].first;
-              largest = window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex);
-            }
-            stuck_left = stuck_left > 0 ? stuck_left - 1 : STUCK_RETRY;
-          } else {
-            stuck_left = 0;
-          }
-        }
-        // The next window starts at twice this one (the step's last window, cut short by
-        // what was left, says nothing about the length that pays).
-        if (t1 < dt || k == 0) {
-          last_delta = t1 - t0;
-          guess = std::min(2.0 * last_delta, dt);
-        }
-      }
+      const double t1 = chooser.next(
+          t0, k, dt, s, target,
+          [&](double t) { return window_edges(bodies, edges, fedges, foreign, t0, t, s, ex); },
+          largest);
 
       // Local groups, each with its own tally (a repair replaces a group's tally).
       // The snapshot keeps its capacity with some slack: on several ranks the number of

@@ -25,17 +25,15 @@
    to it: the outcome is the same, bit for bit, as resolving the whole step with the global
    earliest-event loop (order serial), for any choice of windows.
 
-   Adaptive windows: a window starts at twice the previous one's length (at most what is left
-   of the step) and is halved while its largest group exceeds the target, down to dt / 16; if
-   none gets there (a pile, whose touching bodies stay joined however short the window), the
-   longest length within 5/4 of the smallest largest group is taken, the rest of the step is
-   one window, and the next steps try one halving only, all lengths every 16 steps.
+   The windows are chosen by window_chooser.h (adaptive: halved while the largest group
+   exceeds a target).
 
    No LAMMPS, MPI or CUDA here: communication goes through the Exchange interface. */
 #ifndef HSGPU_ENGINE_WINDOW_DRIVER_H
 #define HSGPU_ENGINE_WINDOW_DRIVER_H
 
 #include "collision_backend.h"
+#include "window_chooser.h"
 
 #include "core/event_order.h"
 
@@ -92,13 +90,6 @@ namespace Collide {
     void sum(long *, int) override {}
   };
 
-  struct WindowSettings {
-    int nwindows = 0;                // > 0: that many equal windows; 0: adaptive
-    double bound_factor = 1.5;       // k in d = max(k |v|, f vmax) (t1 - t0)
-    double floor_fraction = 0.25;    // f: the floor, as a fraction of the fastest drift speed
-    long target_group = 0;           // adaptive: largest group wanted; <= 0: max(256, N / 128)
-  };
-
   /// What the last step did (global figures, the same on every rank).
   struct WindowStats {
     long largest_group = 0;      // most bodies resolved together in one window
@@ -119,10 +110,8 @@ namespace Collide {
              Tally &mine, WindowStats &stats);
 
    private:
-    double last_delta = 0.0;     // length of the last window, for the next one's guess
+    WindowChooser chooser;
     double speed_floor = 0.0;    // f vmax of this step
-    int stuck_left = 0;          // > 0: a recent window could not meet the target
-    std::vector<std::pair<double, long>> tried;    // (window end, largest group) tried
     // per window
     std::vector<Body> snap;       // the bodies at the window start
     std::vector<Tally> gtally;    // tally of each local group

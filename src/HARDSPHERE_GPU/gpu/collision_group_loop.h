@@ -31,14 +31,17 @@ namespace HSGPU {
 namespace Collide {
 
   /// A window's bodies and edges with the edges' adjacency: the edges of body b are
-  /// edges[adj[adj_start[b] .. adj_start[b + 1])], in increasing edge index.  best: one
-  /// Event per body, scratch for the loop.
+  /// edges[adj[adj_start[b] .. adj_start[b + 1])] (in any order: no two events have equal
+  /// keys).  best: one Event per body, scratch for the loop.  joined (optional): only edges q
+  /// with joined[q] != 0 are the window's (the resident step keeps one adjacency of the whole
+  /// step's candidates and marks each window's edges).
   struct GroupGraph {
     Body *bodies;
     const Edge *edges;
     const int *adj_start;
     const int *adj;
     Event *best;
+    const unsigned char *joined = nullptr;
   };
 
   /// The earliest candidate event of body b: its wall event, or the earliest pair event of
@@ -47,6 +50,7 @@ namespace Collide {
   {
     Event e = wall_event(g.bodies, p, b);
     for (int k = g.adj_start[b]; k < g.adj_start[b + 1]; ++k) {
+      if (g.joined && !g.joined[g.adj[k]]) continue;
       const Event c = pair_event(g.bodies, g.edges, p, g.adj[k]);
       if (c.t != Contact::never() && (e.t == Contact::never() || earlier(c, e))) e = c;
     }
@@ -58,6 +62,7 @@ namespace Collide {
   {
     g.best[b] = group_best_event(g, p, b);
     for (int k = g.adj_start[b]; k < g.adj_start[b + 1]; ++k) {
+      if (g.joined && !g.joined[g.adj[k]]) continue;
       const Edge &e = g.edges[g.adj[k]];
       const int o = (e.i == b) ? e.j : e.i;
       g.best[o] = group_best_event(g, p, o);

@@ -1,0 +1,94 @@
+/* HARDSPHERE_GPU collision engine: a whole step of one rank kept on a backend (the device-
+   resident step of the CUDA backend).
+
+   The step driver (window_driver.h) takes the candidate pairs from its caller and hands the
+   backend one window's groups at a time, so every window crosses the host-device link twice.
+   A resident step gets the bodies and their step bounds once and does the rest where they
+   are: the candidate search (a cell list, nearest image in a periodic box), the windows
+   (window_chooser.h, so the same windows as the driver's), the groups (connected components
+   of each window's edges), their events, each window's check (a pair not joined that could
+   have touched is joined and the window resolved again from its start), and the step's check
+   (a body that moved further than its step bound).  The bodies come back once, at the end.
+
+   Exact or nothing.  A step it carries out gives the step driver's positions, velocities,
+   event counts and window statistics bit for bit (the same core functions, compiled without
+   FMA contraction; event times depend only on the two bodies' states, never on the group or
+   the window).  Only the tally's sums of energy lost and virial are added in another order
+   (over groups by a tree rather than one by one): they agree to rounding.  Where the step is
+   not one it can finish alone it declines it, leaving the bodies as given, and the caller
+   resolves the step its own way from the same input:
+   - overlap:   a pair or a sphere and a wall overlap at the start points (the caller reports
+                or pushes them);
+   - excursion: a pair that was not a candidate could have touched (a body moved further
+                than its step bound, and the two together at least the pair's gap), or a body
+                moved further than the reach (the caller raises bounds, or stops);
+   - capped:    the step needs more than p.maxevents events (the caller's cap decides which);
+   - small_box: a periodic length holds fewer than three search cells.
+
+   Only one rank's bodies with no foreign nodes: on several ranks the caller uses the driver.
+   No LAMMPS, MPI or CUDA here. */
+#ifndef HSGPU_ENGINE_RESIDENT_STEP_H
+#define HSGPU_ENGINE_RESIDENT_STEP_H
+
+#include "window_driver.h"
+
+namespace HSGPU {
+namespace Collide {
+
+  /// The box: lower corner, lengths, periodic flags.
+  struct ResidentBox {
+    double lo[3];
+    double prd[3];
+    int periodic[3];
+    /// Pairs closer than (1 - overlap_tol) x contact, and spheres that far inside a wall,
+    /// overlap.
+    double overlap_tol;
+    /// A body that moves further than this in the step declines it (the caller's limit).
+    double reach;
+  };
+
+  enum class ResidentOutcome { done = 0, overlap, excursion, capped, small_box };
+
+  /// What a resident step did besides the tally.
+  struct ResidentReport {
+    ResidentOutcome outcome = ResidentOutcome::done;
+    WindowStats stats;
+    long candidates = 0;       // candidate pairs of the step
+    double t_search = 0.0;     // seconds: upload and candidate search
+    double t_resolve = 0.0;    // seconds: windows, checks and download
+  };
+
+  class ResidentStep {
+   public:
+    virtual ~ResidentStep() = default;
+    /// The step of bodies[0 .. n) (states at the step start, x = X0, tref = 0) with their step
+    /// bounds: pairs whose start points are within r_i + r_j + bound_i + bound_j (nearest
+    /// image) are the candidates.  On `done` the bodies hold their states at the step end
+    /// (excursions noted up to dt, as end_of_step() leaves them) and `tally` this step's
+    /// events; otherwise both are as given.
+    virtual void run(Body *bodies, const double *bound, int n, const ResidentBox &box,
+                     const Params &p, const WindowSettings &s, Tally &tally,
+                     ResidentReport &report) = 0;
+  };
+
+  inline const char *resident_outcome_name(ResidentOutcome o)
+  {
+    switch (o) {
+    case ResidentOutcome::done:
+      return "done";
+    case ResidentOutcome::overlap:
+      return "overlap";
+    case ResidentOutcome::excursion:
+      return "excursion";
+    case ResidentOutcome::capped:
+      return "capped";
+    case ResidentOutcome::small_box:
+      return "small box";
+    }
+    return "?";
+  }
+
+}    // namespace Collide
+}    // namespace HSGPU
+
+#endif

@@ -1,0 +1,107 @@
+/* HARDSPHERE_GPU collision engine: the choice of a step's time windows, shared by the host
+   step driver (window_driver.h) and the device-resident step (resident_step.h), so that both
+   cut a step into the same windows and report the same group sizes.
+
+   Fixed windows: n equal windows.  Adaptive windows: a window starts at twice the previous
+   one's length (at most what is left of the step) and is halved while its largest group
+   exceeds the target, down to dt / 16; if none gets there (a pile, whose touching bodies stay
+   joined however short the window), the longest length within 5/4 of the smallest largest
+   group is taken, the rest of the step is one window, and the next steps try one halving
+   only, all lengths every 16 steps.  Which windows are chosen never changes a result bit
+   (window_driver.h says why); it changes only how much work runs side by side.
+
+   No LAMMPS, MPI or CUDA here. */
+#ifndef HSGPU_ENGINE_WINDOW_CHOOSER_H
+#define HSGPU_ENGINE_WINDOW_CHOOSER_H
+
+#include <algorithm>
+#include <utility>
+#include <vector>
+
+namespace HSGPU {
+namespace Collide {
+
+  struct WindowSettings {
+    int nwindows = 0;                // > 0: that many equal windows; 0: adaptive
+    double bound_factor = 1.5;       // k in d = max(k |v|, f vmax) (t1 - t0)
+    double floor_fraction = 0.25;    // f: the floor, as a fraction of the fastest drift speed
+    long target_group = 0;           // adaptive: largest group wanted; <= 0: max(256, N / 128)
+  };
+
+  class WindowChooser {
+   public:
+    /// Largest group wanted for a step over nbodies bodies (all ranks).
+    static long target(const WindowSettings &s, long nbodies)
+    {
+      return s.target_group > 0 ? s.target_group : std::max(256L, nbodies / 128);
+    }
+
+    /// At the start of a step of length dt.
+    void start_step(double dt) { guess = last_delta > 0.0 ? std::min(2.0 * last_delta, dt) : dt; }
+
+    /// The end of window k, which starts at t0.  try_window(t1) sets up the window [t0, t1)
+    /// (its edges and groups) and returns its largest group over all ranks; the last call is
+    /// for the returned end, whose largest group is left in `largest`.
+    template <class TryWindow>
+    double next(double t0, int k, double dt, const WindowSettings &s, long target_group,
+                TryWindow &&try_window, long &largest)
+    {
+      double t1;
+      if (s.nwindows > 0) {
+        t1 = (k + 1 >= s.nwindows) ? dt : dt * (double) (k + 1) / (double) s.nwindows;
+        largest = try_window(t1);
+        return t1;
+      }
+      const bool rest_of_step = stuck_left > 0 && k > 0;
+      t1 = t0 + guess;
+      if (t1 > dt * (1.0 - 1e-9)) t1 = dt;
+      if (rest_of_step) t1 = dt;
+      largest = try_window(t1);
+      if (!rest_of_step) {
+        tried.clear();
+        tried.emplace_back(t1, largest);
+        int halvings = stuck_left > 0 ? 1 : 64;
+        while (largest > target_group && t1 - t0 > dt * MIN_WINDOW && halvings-- > 0) {
+          t1 = t0 + 0.5 * (t1 - t0);
+          largest = try_window(t1);
+          tried.emplace_back(t1, largest);
+        }
+        if (largest > target_group) {
+          long least = largest;
+          for (const auto &tl : tried) least = std::min(least, tl.second);
+          size_t pick = 0;
+          while (4 * tried[pick].second > 5 * least) ++pick;
+          if (pick + 1 < tried.size()) {
+            t1 = tried[pick].first;
+            largest = try_window(t1);
+          }
+          stuck_left = stuck_left > 0 ? stuck_left - 1 : STUCK_RETRY;
+        } else {
+          stuck_left = 0;
+        }
+      }
+      // The next window starts at twice this one (the step's last window, cut short by what
+      // was left, says nothing about the length that pays).
+      if (t1 < dt || k == 0) {
+        last_delta = t1 - t0;
+        guess = std::min(2.0 * last_delta, dt);
+      }
+      return t1;
+    }
+
+   private:
+    /// Shortest adaptive window, as a fraction of dt.
+    static constexpr double MIN_WINDOW = 1.0 / 16.0;
+    /// Steps after a window that could not meet the target before all lengths are tried again.
+    static constexpr int STUCK_RETRY = 16;
+
+    double last_delta = 0.0;    // length of the last window, for the next one's guess
+    double guess = 0.0;         // length of the next window to try
+    int stuck_left = 0;         // > 0: a recent window could not meet the target
+    std::vector<std::pair<double, long>> tried;    // (window end, largest group) tried
+  };
+
+}    // namespace Collide
+}    // namespace HSGPU
+
+#endif

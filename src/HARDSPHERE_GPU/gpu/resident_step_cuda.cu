@@ -1,0 +1,975 @@
+/* HARDSPHERE_GPU collision engine: the device-resident step, see engine/resident_step.h and
+   resident_step_cuda.h.
+
+   One step, with the bodies on the device from the upload to the download:
+
+     upload bodies and step bounds
+     scan:     largest r + bound, fastest drift, wall overlaps            (one thread per body)
+     search:   cell of every start point, CUB radix sort by cell, cell ranges, candidate pairs
+               counted, CUB scan, written (one thread per body, 27 cells around it; each pair
+               once, from its lower body index), pair overlaps; CSR adjacency of the candidates
+     windows:  for each window length tried (window_chooser.h): window start points and bounds,
+               edges joined (a flag per candidate), connected components by a lock-free
+               union-find whose roots are the components' smallest indices, group sizes and the
+               largest (one 8-byte download); for the window taken: groups numbered in root
+               order (CUB scans), members placed, bodies snapshot, one thread per group runs
+               collision_group_loop.h's exact loop over the joined edges, per-group tallies
+               reduced (CUB, a fixed order), excursions, pairs not joined that could have
+               touched joined (if any: bodies back to the snapshot, components again, resolved
+               again)
+     end:      excursions to dt, the step's check against the step bounds; download bodies
+
+   Every body and event computation is core/'s, compiled with --fmad=false (collide.cmake), so
+   the events, and every bit of the bodies, are the step driver's.  Components are sets, the
+   order of members and edges within a group does not change which event is earliest (no two
+   events have equal keys), and groups are numbered by their smallest member as the driver
+   numbers them; only the tallies' floating-point sums are added in another order. */
+#include "resident_step_cuda.h"
+
+#include "collision_group_loop.h"
+#include "cuda_check.cuh"
+#include "engine/window_chooser.h"
+
+#include <cub/device/device_radix_sort.cuh>
+#include <cub/device/device_reduce.cuh>
+#include <cub/device/device_scan.cuh>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <vector>
+#include <cmath>
+#include <cstddef>
+#include <cstring>
+
+namespace HSGPU {
+namespace Collide {
+
+  namespace {
+
+    using GPU::cuda_check;
+    using GPU::DeviceBuffer;
+
+    constexpr int BLOCK = 256;
+    constexpr int GROUP_BLOCK = 128;
+    /// Relative margin on contact distances in the join and check tests (window_driver.cpp's).
+    constexpr double MARGIN = 1e-9;
+
+    int nblocks(long n, int block = BLOCK)
+    {
+      return (int) ((n + block - 1) / block);
+    }
+
+    /// One window's tally, and whether its group had an event (summed: groups with events).
+    struct WinSum {
+      long pair, wall, rest, events, groups;
+      double ke_lost;
+      double virial[6];
+      int capped;
+    };
+
+    struct WinSumAdd {
+      __host__ __device__ WinSum operator()(const WinSum &a, const WinSum &b) const
+      {
+        WinSum c;
+        c.pair = a.pair + b.pair;
+        c.wall = a.wall + b.wall;
+        c.rest = a.rest + b.rest;
+        c.events = a.events + b.events;
+        c.groups = a.groups + b.groups;
+        c.ke_lost = a.ke_lost + b.ke_lost;
+        for (int k = 0; k < 6; ++k) c.virial[k] = a.virial[k] + b.virial[k];
+        c.capped = a.capped | b.capped;
+        return c;
+      }
+    };
+
+    /// Device scalars, downloaded together.
+    struct Scalars {
+      unsigned long long maxreach;    // bits of the largest r + bound (non-negative double)
+      unsigned long long vmax2;       // bits of the largest |v|^2
+      int overlap;                    // a pair or wall overlaps at the start points
+      int largest;                    // largest group of the window tried
+      int ngroups;                    // groups of the window tried
+      int missed;                     // pairs joined by the window's check
+      int excursion;                  // bodies beyond their step bound
+      int missed_step;                // a pair that was not a candidate could have touched
+      unsigned long long rmax;        // bits of the largest radius
+      unsigned long long maxexc;      // bits of the largest excursion in the step
+      int candidates;                 // candidate pairs
+      WinSum win;                     // the window's tally
+    };
+
+    /// The search grid: cell widths, counts, periodic flags.
+    struct Grid {
+      double lo[3], prd[3], width[3];
+      int n[3];
+      int periodic[3];
+    };
+
+    __device__ void atomic_max_bits(unsigned long long *a, double v)
+    {
+      atomicMax(a, (unsigned long long) __double_as_longlong(v));
+    }
+
+    // Launch: one thread per body (n).  Largest r + bound and |v|^2 into s (bits of
+    // non-negative doubles order as integers), s->overlap where a sphere is more than
+    // tol x its radius inside a wall at its start point.  Reads n Bodies and n bounds.
+    __global__ void scan_bodies_kernel(const Body *__restrict__ bodies,
+                                       const double *__restrict__ bound, int n, Walls walls,
+                                       double tol, Scalars *s)
+    {
+      const int b = blockIdx.x * blockDim.x + threadIdx.x;
+      if (b >= n) return;
+      const Body &bd = bodies[b];
+      atomic_max_bits(&s->maxreach, bd.radius + bound[b]);
+      atomic_max_bits(&s->rmax, bd.radius);
+      atomic_max_bits(&s->vmax2, Contact::dot3(bd.v, bd.v));
+      for (int f = 0; f < NFACES; ++f) {
+        if (!walls.on[f]) continue;
+        const int d = face_dim(f);
+        const double gap = face_sign(f) * (bd.X0[d] - walls.pos[f]) - bd.radius;
+        if (gap < -tol * bd.radius) s->overlap = 1;
+      }
+    }
+
+    __device__ int cell_coord(double x, const Grid &g, int d)
+    {
+      const double u = floor((x - g.lo[d]) / g.width[d]);
+      const double lim = 4.0 * g.n[d] + 4.0;    // far outside: clamped before the cast
+      long c = (long) fmin(fmax(u, -lim), lim);
+      if (g.periodic[d]) {
+        c %= g.n[d];
+        if (c < 0) c += g.n[d];
+      } else {
+        c = c < 0 ? 0 : (c >= g.n[d] ? g.n[d] - 1 : c);
+      }
+      return (int) c;
+    }
+
+    // Launch: one thread per body.  key[b] = the cell of b's start point, val[b] = b.
+    __global__ void cell_kernel(const Body *__restrict__ bodies, int n, Grid g, int *key, int *val)
+    {
+      const int b = blockIdx.x * blockDim.x + threadIdx.x;
+      if (b >= n) return;
+      const double *x = bodies[b].X0;
+      key[b] = (cell_coord(x[2], g, 2) * g.n[1] + cell_coord(x[1], g, 1)) * g.n[0] +
+               cell_coord(x[0], g, 0);
+      val[b] = b;
+    }
+
+    // Launch: one thread per sorted position (n).  cstart/cend (zeroed) get every occupied
+    // cell's range of sorted positions.
+    __global__ void cell_range_kernel(const int *__restrict__ key, int n, int *cstart, int *cend)
+    {
+      const int k = blockIdx.x * blockDim.x + threadIdx.x;
+      if (k >= n) return;
+      if (k == 0 || key[k] != key[k - 1]) cstart[key[k]] = k;
+      if (k == n - 1 || key[k] != key[k + 1]) cend[key[k]] = k + 1;
+    }
+
+    // Launch: one thread per sorted position k (n), body i = order[k].  Visits the bodies j > i
+    // in the 27 cells around i's and tests the pair as the host search does: lower ID first,
+    // nearest image of the start points, |r| <= (r_lo + r_hi) + (bound_lo + bound_hi).  FILL
+    // false: count[k] = its pairs, s->overlap where a pair is closer than (1 - tol) contact.
+    // FILL true: the pairs go to edges[offset[k] ...], in visiting order.  Reads the start
+    // points of the neighbours: about 27 x (cell occupancy) Bodies per thread, from L2.
+    template <bool FILL>
+    __global__ void pair_kernel(const Body *__restrict__ bodies, const double *__restrict__ bound,
+                                int n, Grid g, const int *__restrict__ key,
+                                const int *__restrict__ order, const int *__restrict__ cstart,
+                                const int *__restrict__ cend, int *count,
+                                const int *__restrict__ offset, Edge *edges, double tol, Scalars *s)
+    {
+      const int k = blockIdx.x * blockDim.x + threadIdx.x;
+      if (k >= n) return;
+      const int i = order[k];
+      const int c = key[k];
+      const int ci[3] = {c % g.n[0], (c / g.n[0]) % g.n[1], c / (g.n[0] * g.n[1])};
+      const Body &bi = bodies[i];
+      int found = 0, overlap = 0;
+      Edge *out = FILL ? edges + offset[k] : nullptr;
+      for (int dz = -1; dz <= 1; ++dz) {
+        int cz = ci[2] + dz;
+        if (g.periodic[2])
+          cz = (cz + g.n[2]) % g.n[2];
+        else if (cz < 0 || cz >= g.n[2])
+          continue;
+        for (int dy = -1; dy <= 1; ++dy) {
+          int cy = ci[1] + dy;
+          if (g.periodic[1])
+            cy = (cy + g.n[1]) % g.n[1];
+          else if (cy < 0 || cy >= g.n[1])
+            continue;
+          for (int dx = -1; dx <= 1; ++dx) {
+            int cx = ci[0] + dx;
+            if (g.periodic[0])
+              cx = (cx + g.n[0]) % g.n[0];
+            else if (cx < 0 || cx >= g.n[0])
+              continue;
+            const int cc = (cz * g.n[1] + cy) * g.n[0] + cx;
+            for (int m = cstart[cc]; m < cend[cc]; ++m) {
+              const int j = order[m];
+              if (j <= i) continue;
+              const Body &bj = bodies[j];
+              const bool swap = bj.id < bi.id;
+              const Body &lo = swap ? bj : bi, &hi = swap ? bi : bj;
+              const int ilo = swap ? j : i, ihi = swap ? i : j;
+              double r[3], sh[3];
+              nearest_image_separation(lo.X0, hi.X0, g.prd, g.periodic, r, sh);
+              const double range = (lo.radius + hi.radius) + (bound[ilo] + bound[ihi]);
+              const double d2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+              if (d2 > range * range) continue;
+              if (FILL) {
+                Edge e;
+                e.i = ilo;
+                e.j = ihi;
+                for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
+                out[found] = e;
+              } else {
+                const double lim = (lo.radius + hi.radius) * (1.0 - tol);
+                if (d2 < lim * lim) overlap = 1;
+              }
+              ++found;
+            }
+          }
+        }
+      }
+      if (!FILL) {
+        count[k] = found;
+        if (overlap) s->overlap = 1;
+      }
+    }
+
+    // Launch: one thread per edge (ne).  deg[b] (zeroed, n + 1 entries) += the edges of b.
+    __global__ void degree_kernel(const Edge *__restrict__ edges, int ne, int *deg)
+    {
+      const int q = blockIdx.x * blockDim.x + threadIdx.x;
+      if (q >= ne) return;
+      atomicAdd(&deg[edges[q].i], 1);
+      atomicAdd(&deg[edges[q].j], 1);
+    }
+
+    // Launch: one thread per edge.  Edge q into the adjacency of both its bodies; fill starts
+    // as a copy of adj_start (the order within a body's list is that of the atomics).
+    __global__ void adjacency_kernel(const Edge *__restrict__ edges, int ne, int *fill, int *adj)
+    {
+      const int q = blockIdx.x * blockDim.x + threadIdx.x;
+      if (q >= ne) return;
+      adj[atomicAdd(&fill[edges[q].i], 1)] = q;
+      adj[atomicAdd(&fill[edges[q].j], 1)] = q;
+    }
+
+    // Launch: one thread per body.  The window [t0, t0 + delta): start point w0, excursion
+    // reset, bound max(kf |v|, floor) delta (window_driver.cpp's arithmetic).
+    __global__ void window_start_kernel(Body *bodies, int n, double t0, double delta, double kf,
+                                        double floor_speed, double *wbound)
+    {
+      const int b = blockIdx.x * blockDim.x + threadIdx.x;
+      if (b >= n) return;
+      Body &bd = bodies[b];
+      drift_position(bd, t0, bd.w0);
+      bd.wexc2 = 0.0;
+      const double speed = sqrt(Contact::dot3(bd.v, bd.v));
+      wbound[b] = fmax(kf * speed, floor_speed) * delta;
+    }
+
+    __device__ double window_gap(const double *wa, const double *wb, const double *shift, double s)
+    {
+      double r[3];
+      for (int d = 0; d < 3; ++d) r[d] = wa[d] - wb[d] - shift[d];
+      return sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) - s;
+    }
+
+    // Launch: one thread per candidate edge.  joined[q]: the pair's gap at the window start is
+    // within the two bodies' window bounds.
+    __global__ void join_kernel(const Body *__restrict__ bodies, const Edge *__restrict__ edges,
+                                int ne, const double *__restrict__ wbound, unsigned char *joined)
+    {
+      const int q = blockIdx.x * blockDim.x + threadIdx.x;
+      if (q >= ne) return;
+      const Edge &e = edges[q];
+      const Body &bi = bodies[e.i], &bj = bodies[e.j];
+      const double s2 = bi.radius + bj.radius;
+      joined[q] = window_gap(bi.w0, bj.w0, e.shift, s2) <= wbound[e.i] + wbound[e.j] + MARGIN * s2;
+    }
+
+    // Union-find over the bodies.  parent[x] <= x always (a root is linked under a smaller
+    // one), so every root is its component's smallest index.  Finds halve paths with plain
+    // stores of ancestors: racing threads only ever shorten paths.
+    __device__ int uf_find(int *parent, int x)
+    {
+      volatile int *par = parent;
+      int cur = par[x];
+      if (cur != x) {
+        int next, prev = x;
+        while (cur > (next = par[cur])) {
+          par[prev] = next;
+          prev = cur;
+          cur = next;
+        }
+      }
+      return cur;
+    }
+
+    __global__ void uf_init_kernel(int *parent, int *size, int n)
+    {
+      const int b = blockIdx.x * blockDim.x + threadIdx.x;
+      if (b >= n) return;
+      parent[b] = b;
+      size[b] = 0;
+    }
+
+    // Launch: one thread per candidate edge; joins the ends of the joined ones.
+    __global__ void uf_unite_kernel(const Edge *__restrict__ edges, int ne,
+                                    const unsigned char *__restrict__ joined, int *parent)
+    {
+      const int q = blockIdx.x * blockDim.x + threadIdx.x;
+      if (q >= ne || !joined[q]) return;
+      int a = uf_find(parent, edges[q].i), b = uf_find(parent, edges[q].j);
+      while (a != b) {
+        if (a > b) {
+          const int t = a;
+          a = b;
+          b = t;
+        }
+        // Link root b under a; if b stopped being a root meanwhile, go on from its parent.
+        const int old = atomicCAS(&parent[b], b, a);
+        if (old == b) break;
+        b = uf_find(parent, old);
+        a = uf_find(parent, a);
+      }
+    }
+
+    // Launch: one thread per body, after every union.  root[b] = b's root, size[root]++.
+    // The roots go to their own array: a find's path halving in one thread may store a
+    // nearer ancestor over what another thread just wrote into parent[].
+    __global__ void uf_roots_kernel(int *parent, int *root, int *size, int n)
+    {
+      const int b = blockIdx.x * blockDim.x + threadIdx.x;
+      if (b >= n) return;
+      const int r = uf_find(parent, b);
+      root[b] = r;
+      atomicAdd(&size[r], 1);
+    }
+
+    // Launch: one thread per body.  Roots: the largest group and the number of groups into s;
+    // isroot[b] and rsize[b] (the group's size at its root, else 0) for the numbering scans.
+    __global__ void roots_kernel(const int *__restrict__ root, const int *__restrict__ size, int n,
+                                 int *isroot, int *rsize, Scalars *s)
+    {
+      const int b = blockIdx.x * blockDim.x + threadIdx.x;
+      if (b >= n) return;
+      const bool is = root[b] == b;
+      isroot[b] = is ? 1 : 0;
+      rsize[b] = is ? size[b] : 0;
+      if (is) {
+        atomicMax(&s->largest, size[b]);
+        atomicAdd(&s->ngroups, 1);
+      }
+    }
+
+    // Launch: one thread per body.  Group g (numbered in root order: gid = exclusive scan of
+    // isroot) starts at goff[root] (exclusive scan of rsize); members placed by atomics.
+    __global__ void members_kernel(const int *__restrict__ root, const int *__restrict__ gid,
+                                   const int *__restrict__ goff, int n, int ngroups, int *gstart,
+                                   int *fill, int *gmembers)
+    {
+      const int b = blockIdx.x * blockDim.x + threadIdx.x;
+      if (b >= n) return;
+      const int r = root[b];
+      if (r == b) gstart[gid[b]] = goff[b];
+      if (b == 0) gstart[ngroups] = n;
+      gmembers[goff[r] + atomicAdd(&fill[r], 1)] = b;
+    }
+
+    // Launch: one thread per group (ngroups).  Group g's events before t_end, at most budget;
+    // its tally (summed in event order from zero) and whether it had an event into sums[g].
+    __global__ void resolve_kernel(GroupGraph graph, const int *__restrict__ gstart,
+                                   const int *__restrict__ gmembers, int ngroups, double t_end,
+                                   Params p, long budget, WinSum *sums)
+    {
+      const int g = blockIdx.x * blockDim.x + threadIdx.x;
+      if (g >= ngroups) return;
+      const int lo = gstart[g], hi = gstart[g + 1];
+      Tally t;
+      resolve_group_exact(graph, p, gmembers + lo, hi - lo, t_end, budget, t);
+      WinSum w;
+      w.pair = t.pair;
+      w.wall = t.wall;
+      w.rest = t.rest;
+      w.events = t.events;
+      w.groups = t.events > 0 ? 1 : 0;
+      w.ke_lost = t.ke_lost;
+      for (int k = 0; k < 6; ++k) w.virial[k] = t.virial[k];
+      w.capped = t.capped;
+      sums[g] = w;
+    }
+
+    // Launch: one thread per body.  Excursion from the window start point at t1.
+    __global__ void excursion_kernel(Body *bodies, int n, double t1, double *lexc)
+    {
+      const int b = blockIdx.x * blockDim.x + threadIdx.x;
+      if (b >= n) return;
+      double x[3];
+      drift_position(bodies[b], t1, x);
+      note_excursion(bodies[b], x);
+      lexc[b] = sqrt(bodies[b].wexc2);
+    }
+
+    // Launch: one thread per candidate edge.  A pair not joined that could have touched (a
+    // body beyond its window bound, the two moved at least the gap together) is joined;
+    // s->missed counts them.
+    __global__ void missed_kernel(const Body *__restrict__ bodies, const Edge *__restrict__ edges,
+                                  int ne, const double *__restrict__ wbound,
+                                  const double *__restrict__ lexc, unsigned char *joined,
+                                  Scalars *s)
+    {
+      const int q = blockIdx.x * blockDim.x + threadIdx.x;
+      if (q >= ne || joined[q]) return;
+      const Edge &e = edges[q];
+      if (!(lexc[e.i] > wbound[e.i]) && !(lexc[e.j] > wbound[e.j])) return;
+      const Body &bi = bodies[e.i], &bj = bodies[e.j];
+      const double s2 = bi.radius + bj.radius;
+      if (lexc[e.i] + lexc[e.j] + MARGIN * s2 < window_gap(bi.w0, bj.w0, e.shift, s2)) return;
+      joined[q] = 1;
+      atomicAdd(&s->missed, 1);
+    }
+
+    // Launch: one thread per body.  The end of the step: excursion noted at dt (as
+    // end_of_step() does) and kept in exc[b]; s->excursion counts bodies beyond their step
+    // bound, s->maxexc the largest excursion.
+    __global__ void end_kernel(Body *bodies, int n, double dt, const double *__restrict__ bound,
+                               double *exc, Scalars *s)
+    {
+      const int b = blockIdx.x * blockDim.x + threadIdx.x;
+      if (b >= n) return;
+      double x[3];
+      drift_position(bodies[b], dt, x);
+      note_excursion(bodies[b], x);
+      const double e = sqrt(bodies[b].exc2);
+      exc[b] = e;
+      atomic_max_bits(&s->maxexc, e);
+      if (e > bound[b]) atomicAdd(&s->excursion, 1);
+    }
+
+    // Launch: one thread per sorted position k (n), body i = order[k].  The step's check (the
+    // host's FixHardSphere::step_exact()): for a body beyond its step bound, a pair with a
+    // neighbour that was not a candidate could have touched if the two moved at least its gap
+    // together; s->missed_step is set for such a pair, or where the body's partners could lie
+    // beyond the cells around it (exc_i + maxexc + 2 rmax not below the narrowest cell).
+    __global__ void step_check_kernel(const Body *__restrict__ bodies,
+                                      const double *__restrict__ bound,
+                                      const double *__restrict__ exc, int n, Grid g,
+                                      const int *__restrict__ key, const int *__restrict__ order,
+                                      const int *__restrict__ cstart, const int *__restrict__ cend,
+                                      double maxexc, double rmax, double tol, Scalars *s)
+    {
+      const int k = blockIdx.x * blockDim.x + threadIdx.x;
+      if (k >= n) return;
+      const int i = order[k];
+      if (!(exc[i] > bound[i])) return;
+      const double wmin = fmin(g.width[0], fmin(g.width[1], g.width[2]));
+      if (!(exc[i] + maxexc + 2.0 * rmax < wmin)) {
+        s->missed_step = 1;
+        return;
+      }
+      const int c = key[k];
+      const int ci[3] = {c % g.n[0], (c / g.n[0]) % g.n[1], c / (g.n[0] * g.n[1])};
+      const Body &bi = bodies[i];
+      for (int dz = -1; dz <= 1; ++dz) {
+        int cz = ci[2] + dz;
+        if (g.periodic[2])
+          cz = (cz + g.n[2]) % g.n[2];
+        else if (cz < 0 || cz >= g.n[2])
+          continue;
+        for (int dy = -1; dy <= 1; ++dy) {
+          int cy = ci[1] + dy;
+          if (g.periodic[1])
+            cy = (cy + g.n[1]) % g.n[1];
+          else if (cy < 0 || cy >= g.n[1])
+            continue;
+          for (int dx = -1; dx <= 1; ++dx) {
+            int cx = ci[0] + dx;
+            if (g.periodic[0])
+              cx = (cx + g.n[0]) % g.n[0];
+            else if (cx < 0 || cx >= g.n[0])
+              continue;
+            const int cc = (cz * g.n[1] + cy) * g.n[0] + cx;
+            for (int m = cstart[cc]; m < cend[cc]; ++m) {
+              const int j = order[m];
+              if (j == i) continue;
+              const Body &bj = bodies[j];
+              const bool swap = bj.id < bi.id;
+              const Body &lo = swap ? bj : bi, &hi = swap ? bi : bj;
+              const int ilo = swap ? j : i, ihi = swap ? i : j;
+              double r[3], sh[3];
+              nearest_image_separation(lo.X0, hi.X0, g.prd, g.periodic, r, sh);
+              const double dist = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+              const double contact = lo.radius + hi.radius;
+              if (dist <= contact + (bound[ilo] + bound[ihi])) continue;    // a candidate
+              if (dist - contact > exc[i] + exc[j] + tol * contact) continue;
+              s->missed_step = 1;
+            }
+          }
+        }
+      }
+    }
+
+    double seconds_since(std::chrono::steady_clock::time_point t)
+    {
+      return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+    }
+
+    class CudaResidentStep : public ResidentStep {
+     public:
+      explicit CudaResidentStep(int dev) : device(dev)
+      {
+        const cudaError_t err = cudaSetDevice(device);
+        if (err != cudaSuccess) cudaGetLastError();
+        cuda_check(err, "cudaSetDevice");
+        cuda_check(cudaStreamCreateWithFlags(&stream, cudaStreamNonBlocking), "cudaStreamCreate");
+        cuda_check(cudaMallocHost(&host_scalars, sizeof(Scalars)), "cudaMallocHost(scalars)");
+      }
+
+      ~CudaResidentStep() override
+      {
+        cudaSetDevice(device);
+        for (DeviceBuffer *b :
+             {&d_bodies,    &d_snap,   &d_bound, &d_scalars, &d_key,    &d_val,    &d_key2,
+              &d_val2,      &d_cstart, &d_cend,  &d_count,   &d_offset, &d_edges,  &d_deg,
+              &d_adj_start, &d_fill,   &d_adj,   &d_joined,  &d_wbound, &d_parent, &d_root,
+              &d_size,      &d_isroot, &d_rsize, &d_gid,     &d_goff,   &d_gstart, &d_gmembers,
+              &d_best,      &d_sums,   &d_lexc,  &d_temp})
+          b->release();
+        if (host_scalars) cudaFreeHost(host_scalars);
+        if (stream) cudaStreamDestroy(stream);
+      }
+
+      CudaResidentStep(const CudaResidentStep &) = delete;
+      CudaResidentStep &operator=(const CudaResidentStep &) = delete;
+
+      void run(Body *bodies, const double *bound, int n, const ResidentBox &box, const Params &p,
+               const WindowSettings &s, Tally &tally, ResidentReport &report) override;
+
+     private:
+      int device;
+      cudaStream_t stream = nullptr;
+      Scalars *host_scalars = nullptr;
+      WindowChooser chooser;
+      int n = 0, ne = 0;
+      double tol = 0.0;    // overlap tolerance of the step
+      Grid grid;           // the search's cells
+      DeviceBuffer d_bodies, d_snap, d_bound, d_scalars, d_key, d_val, d_key2, d_val2, d_cstart,
+          d_cend, d_count, d_offset, d_edges, d_deg, d_adj_start, d_fill, d_adj, d_joined, d_wbound,
+          d_parent, d_root, d_size, d_isroot, d_rsize, d_gid, d_goff, d_gstart, d_gmembers, d_best,
+          d_sums, d_lexc, d_temp;
+
+      Scalars *scalars() const { return d_scalars.as<Scalars>(); }
+
+      /// Scalars to the host (waits for the stream).
+      const Scalars &download_scalars()
+      {
+        cuda_check(cudaMemcpyAsync(host_scalars, d_scalars.ptr, sizeof(Scalars),
+                                   cudaMemcpyDeviceToHost, stream),
+                   "cudaMemcpy(scalars)");
+        cuda_check(cudaStreamSynchronize(stream), "resident step");
+        return *host_scalars;
+      }
+
+      template <class T> void zero(T *field)
+      {
+        cuda_check(cudaMemsetAsync(field, 0, sizeof(T), stream), "cudaMemset");
+      }
+
+      void launched(const char *what) { cuda_check(cudaGetLastError(), what); }
+
+      /// Exclusive sum of n + 1 ints (in[n] must be 0) into out, with CUB.
+      void exclusive_sum(const int *in, int *out, int count)
+      {
+        size_t bytes = 0;
+        cuda_check(cub::DeviceScan::ExclusiveSum(nullptr, bytes, in, out, count, stream),
+                   "cub::DeviceScan");
+        d_temp.reserve(bytes + 16, "cudaMalloc(scan scratch)");
+        cuda_check(cub::DeviceScan::ExclusiveSum(d_temp.ptr, bytes, in, out, count, stream),
+                   "cub::DeviceScan");
+      }
+
+      ResidentOutcome search(const ResidentBox &box, double maxreach, long &candidates);
+      void verify_groups(int ngroups, const char *where);
+      int components();
+      void groups(int ngroups);
+    };
+
+    /* The candidate pairs and their adjacency.  Declines where a periodic length holds fewer
+       than three cells or a pair overlaps. */
+    ResidentOutcome CudaResidentStep::search(const ResidentBox &box, double maxreach,
+                                             long &candidates)
+    {
+      Grid g;
+      // Cells at least as wide as the longest candidate range, with a margin for rounding;
+      // no more of them than about twice the bodies (a dilute system gets wider cells).
+      const double w = 2.0 * maxreach * (1.0 + 1e-9) + 1e-300;
+      long cells = 1;
+      for (int d = 0; d < 3; ++d) {
+        g.lo[d] = box.lo[d];
+        g.prd[d] = box.prd[d];
+        g.periodic[d] = box.periodic[d];
+        const double k = std::floor(box.prd[d] / w);
+        g.n[d] = (int) std::max(1.0, std::min(k, 1048576.0));
+        if (g.periodic[d] && g.n[d] < 3) return ResidentOutcome::small_box;
+        cells *= g.n[d];
+      }
+      const long most = 2L * n + 64;
+      while (cells > most) {
+        int d = 0;
+        for (int e = 1; e < 3; ++e)
+          if (g.n[e] > g.n[d]) d = e;
+        const int least = g.periodic[d] ? 3 : 1;
+        if (g.n[d] <= least) break;
+        cells /= g.n[d];
+        g.n[d] = std::max(least, g.n[d] / 2);
+        cells *= g.n[d];
+      }
+      for (int d = 0; d < 3; ++d) g.width[d] = box.prd[d] / g.n[d];
+      grid = g;
+
+      d_key.reserve(n * sizeof(int), "cudaMalloc(cells)");
+      d_val.reserve(n * sizeof(int), "cudaMalloc(cells)");
+      d_key2.reserve(n * sizeof(int), "cudaMalloc(cells)");
+      d_val2.reserve(n * sizeof(int), "cudaMalloc(cells)");
+      d_cstart.reserve(cells * sizeof(int), "cudaMalloc(cell ranges)");
+      d_cend.reserve(cells * sizeof(int), "cudaMalloc(cell ranges)");
+      d_count.reserve((n + 1) * sizeof(int), "cudaMalloc(pair counts)");
+      d_offset.reserve((n + 1) * sizeof(int), "cudaMalloc(pair counts)");
+      cell_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_bodies.as<Body>(), n, g, d_key.as<int>(),
+                                                    d_val.as<int>());
+      launched("cell_kernel");
+      int end_bit = 1;
+      while (end_bit < 31 && (1L << end_bit) < cells) ++end_bit;
+      size_t bytes = 0;
+      cuda_check(cub::DeviceRadixSort::SortPairs(nullptr, bytes, d_key.as<int>(), d_key2.as<int>(),
+                                                 d_val.as<int>(), d_val2.as<int>(), n, 0, end_bit,
+                                                 stream),
+                 "cub::DeviceRadixSort");
+      d_temp.reserve(bytes + 16, "cudaMalloc(sort scratch)");
+      cuda_check(cub::DeviceRadixSort::SortPairs(d_temp.ptr, bytes, d_key.as<int>(),
+                                                 d_key2.as<int>(), d_val.as<int>(),
+                                                 d_val2.as<int>(), n, 0, end_bit, stream),
+                 "cub::DeviceRadixSort");
+      cuda_check(cudaMemsetAsync(d_cstart.ptr, 0, cells * sizeof(int), stream), "cudaMemset");
+      cuda_check(cudaMemsetAsync(d_cend.ptr, 0, cells * sizeof(int), stream), "cudaMemset");
+      cell_range_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_key2.as<int>(), n, d_cstart.as<int>(),
+                                                          d_cend.as<int>());
+      launched("cell_range_kernel");
+      cuda_check(cudaMemsetAsync(d_count.as<int>() + n, 0, sizeof(int), stream), "cudaMemset");
+      // The count pass also finds overlaps.
+      pair_kernel<false><<<nblocks(n), BLOCK, 0, stream>>>(
+          d_bodies.as<Body>(), d_bound.as<double>(), n, g, d_key2.as<int>(), d_val2.as<int>(),
+          d_cstart.as<int>(), d_cend.as<int>(), d_count.as<int>(), nullptr, nullptr, tol,
+          scalars());
+      launched("pair_kernel (count)");
+      exclusive_sum(d_count.as<int>(), d_offset.as<int>(), n + 1);
+      cuda_check(cudaMemcpyAsync(&scalars()->candidates, d_offset.as<int>() + n, sizeof(int),
+                                 cudaMemcpyDeviceToDevice, stream),
+                 "cudaMemcpy(candidates)");
+      const Scalars &sc = download_scalars();
+      if (sc.overlap) return ResidentOutcome::overlap;
+      ne = sc.candidates;
+      candidates = ne;
+      d_edges.reserve((size_t) ne * sizeof(Edge) + 1, "cudaMalloc(candidate pairs)");
+      pair_kernel<true><<<nblocks(n), BLOCK, 0, stream>>>(
+          d_bodies.as<Body>(), d_bound.as<double>(), n, g, d_key2.as<int>(), d_val2.as<int>(),
+          d_cstart.as<int>(), d_cend.as<int>(), nullptr, d_offset.as<int>(), d_edges.as<Edge>(),
+          tol, scalars());
+      launched("pair_kernel (fill)");
+
+      // Adjacency (CSR) of the candidates.
+      d_deg.reserve((n + 1) * sizeof(int), "cudaMalloc(adjacency)");
+      d_adj_start.reserve((n + 1) * sizeof(int), "cudaMalloc(adjacency)");
+      d_fill.reserve((n + 1) * sizeof(int), "cudaMalloc(adjacency)");
+      d_adj.reserve((size_t) 2 * ne * sizeof(int) + 1, "cudaMalloc(adjacency)");
+      cuda_check(cudaMemsetAsync(d_deg.ptr, 0, (n + 1) * sizeof(int), stream), "cudaMemset");
+      if (ne > 0) {
+        degree_kernel<<<nblocks(ne), BLOCK, 0, stream>>>(d_edges.as<Edge>(), ne, d_deg.as<int>());
+        launched("degree_kernel");
+      }
+      exclusive_sum(d_deg.as<int>(), d_adj_start.as<int>(), n + 1);
+      cuda_check(cudaMemcpyAsync(d_fill.ptr, d_adj_start.ptr, (n + 1) * sizeof(int),
+                                 cudaMemcpyDeviceToDevice, stream),
+                 "cudaMemcpy(adjacency)");
+      if (ne > 0) {
+        adjacency_kernel<<<nblocks(ne), BLOCK, 0, stream>>>(d_edges.as<Edge>(), ne,
+                                                            d_fill.as<int>(), d_adj.as<int>());
+        launched("adjacency_kernel");
+      }
+      d_joined.reserve((size_t) ne + 1, "cudaMalloc(joined flags)");
+      return ResidentOutcome::done;
+    }
+
+    /* Components of the joined edges: parent[] holds every body's root (its component's
+       smallest index), size[] the sizes at the roots.  Returns the largest component and
+       leaves the number of components in the scalars. */
+    int CudaResidentStep::components()
+    {
+      zero(&scalars()->largest);
+      zero(&scalars()->ngroups);
+      uf_init_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_parent.as<int>(), d_size.as<int>(), n);
+      launched("uf_init_kernel");
+      if (ne > 0) {
+        uf_unite_kernel<<<nblocks(ne), BLOCK, 0, stream>>>(
+            d_edges.as<Edge>(), ne, d_joined.as<unsigned char>(), d_parent.as<int>());
+        launched("uf_unite_kernel");
+      }
+      uf_roots_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_parent.as<int>(), d_root.as<int>(),
+                                                        d_size.as<int>(), n);
+      launched("uf_roots_kernel");
+      roots_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
+          d_root.as<int>(), d_size.as<int>(), n, d_isroot.as<int>(), d_rsize.as<int>(), scalars());
+      launched("roots_kernel");
+      return download_scalars().largest;
+    }
+
+    /* The groups of the last components(): numbered in root order, members placed. */
+    void CudaResidentStep::groups(int ngroups)
+    {
+      exclusive_sum(d_isroot.as<int>(), d_gid.as<int>(), n + 1);
+      exclusive_sum(d_rsize.as<int>(), d_goff.as<int>(), n + 1);
+      cuda_check(cudaMemsetAsync(d_fill.ptr, 0, (n + 1) * sizeof(int), stream), "cudaMemset");
+      members_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
+          d_root.as<int>(), d_gid.as<int>(), d_goff.as<int>(), n, ngroups, d_gstart.as<int>(),
+          d_fill.as<int>(), d_gmembers.as<int>());
+      launched("members_kernel");
+    }
+
+    /* Debugging aid (HSGPU_RESIDENT_VERIFY=1): the groups on the host, checked against the
+       joined edges. */
+    void CudaResidentStep::verify_groups(int ngroups, const char *where)
+    {
+      std::vector<int> parent(n), gstart(ngroups + 1), gmembers(n);
+      std::vector<unsigned char> joined(ne);
+      std::vector<Edge> edges(ne);
+      cuda_check(cudaStreamSynchronize(stream), "verify");
+      cudaMemcpy(parent.data(), d_root.ptr, n * sizeof(int), cudaMemcpyDeviceToHost);
+      cudaMemcpy(gstart.data(), d_gstart.ptr, (ngroups + 1) * sizeof(int), cudaMemcpyDeviceToHost);
+      cudaMemcpy(gmembers.data(), d_gmembers.ptr, n * sizeof(int), cudaMemcpyDeviceToHost);
+      cudaMemcpy(joined.data(), d_joined.ptr, ne, cudaMemcpyDeviceToHost);
+      cudaMemcpy(edges.data(), d_edges.ptr, ne * sizeof(Edge), cudaMemcpyDeviceToHost);
+      std::vector<int> group_of(n, -1);
+      int bad = 0;
+      for (int g = 0; g < ngroups; ++g)
+        for (int m = gstart[g]; m < gstart[g + 1]; ++m) {
+          if (group_of[gmembers[m]] >= 0) ++bad;
+          group_of[gmembers[m]] = g;
+        }
+      for (int b = 0; b < n; ++b)
+        if (group_of[b] < 0) ++bad;
+      int cross = 0;
+      for (int q = 0; q < ne; ++q)
+        if (joined[q] && group_of[edges[q].i] != group_of[edges[q].j]) ++cross;
+      if (bad || cross || gstart[ngroups] != n)
+        std::fprintf(stderr,
+                     "resident verify (%s): %d misplaced bodies, %d joined edges across groups, "
+                     "end %d of %d\n",
+                     where, bad, cross, gstart[ngroups], n);
+    }
+
+    void CudaResidentStep::run(Body *bodies, const double *bound, int nbodies,
+                               const ResidentBox &box, const Params &p, const WindowSettings &s,
+                               Tally &tally, ResidentReport &report)
+    {
+      const auto t_start = std::chrono::steady_clock::now();
+      report = ResidentReport();
+      n = nbodies;
+      if (n <= 0) return;
+      tol = box.overlap_tol;
+      cuda_check(cudaSetDevice(device), "cudaSetDevice");
+      (void) cudaGetLastError();
+
+      const size_t ntypes2 = (size_t) (p.ntypes + 1) * (p.ntypes + 1);
+      d_bodies.reserve(n * sizeof(Body), "cudaMalloc(bodies)");
+      d_snap.reserve(n * sizeof(Body), "cudaMalloc(bodies)");
+      d_best.reserve(n * sizeof(Event), "cudaMalloc(best events)");
+      d_sums.reserve(n * sizeof(WinSum), "cudaMalloc(group tallies)");
+      d_scalars.reserve(sizeof(Scalars) + ntypes2 * sizeof(double), "cudaMalloc(scalars)");
+      for (DeviceBuffer *b : {&d_bound, &d_wbound, &d_lexc})
+        b->reserve(n * sizeof(double), "cudaMalloc(bounds)");
+      for (DeviceBuffer *b : {&d_parent, &d_root, &d_size, &d_isroot, &d_rsize, &d_gid, &d_goff,
+                              &d_gstart, &d_gmembers})
+        b->reserve((n + 1) * sizeof(int), "cudaMalloc(groups)");
+      // The restitution table lives after the scalars.
+      double *d_epair = reinterpret_cast<double *>(d_scalars.as<char>() + sizeof(Scalars));
+      cuda_check(
+          cudaMemcpyAsync(d_bodies.ptr, bodies, n * sizeof(Body), cudaMemcpyHostToDevice, stream),
+          "cudaMemcpy(bodies)");
+      cuda_check(
+          cudaMemcpyAsync(d_bound.ptr, bound, n * sizeof(double), cudaMemcpyHostToDevice, stream),
+          "cudaMemcpy(bounds)");
+      cuda_check(cudaMemcpyAsync(d_epair, p.epair, ntypes2 * sizeof(double), cudaMemcpyHostToDevice,
+                                 stream),
+                 "cudaMemcpy(restitution table)");
+      // n + 1 entries for the scans: the last ones stay 0.
+      for (DeviceBuffer *b : {&d_isroot, &d_rsize})
+        cuda_check(cudaMemsetAsync(b->as<int>() + n, 0, sizeof(int), stream), "cudaMemset");
+      cuda_check(cudaMemsetAsync(d_scalars.ptr, 0, sizeof(Scalars), stream), "cudaMemset");
+      Params dp = p;
+      dp.epair = d_epair;
+
+      scan_bodies_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
+          d_bodies.as<Body>(), d_bound.as<double>(), n, p.walls, tol, scalars());
+      launched("scan_bodies_kernel");
+      const Scalars sc = download_scalars();
+      double maxreach, vmax2;
+      std::memcpy(&maxreach, &sc.maxreach, sizeof(double));
+      std::memcpy(&vmax2, &sc.vmax2, sizeof(double));
+      if (sc.overlap) {
+        report.outcome = ResidentOutcome::overlap;
+        return;
+      }
+      report.outcome = search(box, maxreach, report.candidates);
+      if (report.outcome != ResidentOutcome::done) return;
+      report.t_search = seconds_since(t_start);
+      const auto t_windows = std::chrono::steady_clock::now();
+
+      const WindowChooser chooser_at_start = chooser;
+      const double dt = p.dt;
+      const double speed_floor = s.floor_fraction * std::sqrt(vmax2);
+      const long target = WindowChooser::target(s, n);
+      const GroupGraph graph{d_bodies.as<Body>(), d_edges.as<Edge>(), d_adj_start.as<int>(),
+                             d_adj.as<int>(),     d_best.as<Event>(), d_joined.as<unsigned char>()};
+      WindowStats &stats = report.stats;
+      Tally total;
+      double t0 = 0.0;
+      chooser.start_step(dt);
+      int k = 0;
+      auto decline = [&](ResidentOutcome o) {
+        chooser = chooser_at_start;
+        report.outcome = o;
+        report.t_resolve = seconds_since(t_windows);
+      };
+      while (t0 < dt) {
+        long largest;
+        int ngroups = 0;
+        auto try_window = [&](double t1) -> long {
+          window_start_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_bodies.as<Body>(), n, t0, t1 - t0,
+                                                                s.bound_factor, speed_floor,
+                                                                d_wbound.as<double>());
+          launched("window_start_kernel");
+          if (ne > 0) {
+            join_kernel<<<nblocks(ne), BLOCK, 0, stream>>>(d_bodies.as<Body>(), d_edges.as<Edge>(),
+                                                           ne, d_wbound.as<double>(),
+                                                           d_joined.as<unsigned char>());
+            launched("join_kernel");
+          }
+          const long l = components();
+          ngroups = host_scalars->ngroups;
+          return l;
+        };
+        const double t1 = chooser.next(t0, k, dt, s, target, try_window, largest);
+        cuda_check(cudaMemcpyAsync(d_snap.ptr, d_bodies.ptr, n * sizeof(Body),
+                                   cudaMemcpyDeviceToDevice, stream),
+                   "cudaMemcpy(snapshot)");
+        const long budget = p.maxevents - total.events;
+        WinSum win;
+        static const bool verify = std::getenv("HSGPU_RESIDENT_VERIFY") != nullptr;
+        while (true) {
+          groups(ngroups);
+          if (verify) verify_groups(ngroups, "window");
+          resolve_kernel<<<nblocks(ngroups, GROUP_BLOCK), GROUP_BLOCK, 0, stream>>>(
+              graph, d_gstart.as<int>(), d_gmembers.as<int>(), ngroups, t1, dp, budget,
+              d_sums.as<WinSum>());
+          launched("resolve_kernel");
+          size_t bytes = 0;
+          const WinSum zero_sum{};
+          cuda_check(cub::DeviceReduce::Reduce(nullptr, bytes, d_sums.as<WinSum>(), &scalars()->win,
+                                               ngroups, WinSumAdd(), zero_sum, stream),
+                     "cub::DeviceReduce");
+          d_temp.reserve(bytes + 16, "cudaMalloc(reduce scratch)");
+          cuda_check(cub::DeviceReduce::Reduce(d_temp.ptr, bytes, d_sums.as<WinSum>(),
+                                               &scalars()->win, ngroups, WinSumAdd(), zero_sum,
+                                               stream),
+                     "cub::DeviceReduce");
+          excursion_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_bodies.as<Body>(), n, t1,
+                                                             d_lexc.as<double>());
+          launched("excursion_kernel");
+          zero(&scalars()->missed);
+          if (ne > 0) {
+            missed_kernel<<<nblocks(ne), BLOCK, 0, stream>>>(
+                d_bodies.as<Body>(), d_edges.as<Edge>(), ne, d_wbound.as<double>(),
+                d_lexc.as<double>(), d_joined.as<unsigned char>(), scalars());
+            launched("missed_kernel");
+          }
+          const Scalars &r = download_scalars();
+          win = r.win;
+          if (win.capped || win.events > budget) {
+            decline(ResidentOutcome::capped);
+            return;
+          }
+          if (r.missed == 0) break;
+          // Joined pairs that could have touched: the window again from its start.
+          stats.repairs += r.missed;
+          cuda_check(cudaMemcpyAsync(d_bodies.ptr, d_snap.ptr, n * sizeof(Body),
+                                     cudaMemcpyDeviceToDevice, stream),
+                     "cudaMemcpy(snapshot back)");
+          largest = std::max(largest, (long) components());
+          ngroups = host_scalars->ngroups;
+        }
+        Tally wt;
+        wt.pair = win.pair;
+        wt.wall = win.wall;
+        wt.rest = win.rest;
+        wt.events = win.events;
+        wt.ke_lost = win.ke_lost;
+        for (int c = 0; c < 6; ++c) wt.virial[c] = win.virial[c];
+        total.add(wt);
+        stats.largest_group = std::max(stats.largest_group, largest);
+        stats.groups += win.groups;
+        ++k;
+        t0 = t1;
+      }
+      stats.windows = k;
+
+      zero(&scalars()->excursion);
+      zero(&scalars()->maxexc);
+      zero(&scalars()->missed_step);
+      end_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_bodies.as<Body>(), n, dt, d_bound.as<double>(),
+                                                   d_lexc.as<double>(), scalars());
+      launched("end_kernel");
+      const Scalars &es = download_scalars();
+      if (es.excursion > 0) {
+        double maxexc, rmax;
+        std::memcpy(&maxexc, &es.maxexc, sizeof(double));
+        std::memcpy(&rmax, &sc.rmax, sizeof(double));
+        // Past the reach the caller's ghosts cover: the caller stops the run.
+        if (maxexc > box.reach) {
+          decline(ResidentOutcome::excursion);
+          return;
+        }
+        step_check_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
+            d_bodies.as<Body>(), d_bound.as<double>(), d_lexc.as<double>(), n, grid,
+            d_key2.as<int>(), d_val2.as<int>(), d_cstart.as<int>(), d_cend.as<int>(), maxexc, rmax,
+            tol, scalars());
+        launched("step_check_kernel");
+        if (download_scalars().missed_step) {
+          decline(ResidentOutcome::excursion);
+          return;
+        }
+      }
+      cuda_check(
+          cudaMemcpyAsync(bodies, d_bodies.ptr, n * sizeof(Body), cudaMemcpyDeviceToHost, stream),
+          "cudaMemcpy(bodies back)");
+      cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(bodies back)");
+      tally.add(total);
+      report.t_resolve = seconds_since(t_windows);
+    }
+
+  }    // namespace
+
+  std::unique_ptr<ResidentStep> make_cuda_resident_step(int device)
+  {
+    return std::unique_ptr<ResidentStep>(new CudaResidentStep(device));
+  }
+
+}    // namespace Collide
+}    // namespace HSGPU
