@@ -105,6 +105,7 @@ class FixHardSphere : public Fix {
     double boundary = 0.0, gathers = 0.0, repairs = 0.0, redos = 0.0;
     double t_search = 0.0, t_resolve = 0.0;
     bigint resident = 0;                     // steps carried out on the device
+    double t_transfer = 0.0;                 // seconds copying bodies to the device and back
     bigint declined[5] = {0, 0, 0, 0, 0};    // steps handed back, by ResidentOutcome
   } run_sum;
 
@@ -162,7 +163,7 @@ class FixHardSphere : public Fix {
   double step_bound(int i, double drift_dt) const;
   bool gather_bodies(double drift_dt);
   int build(double drift_dt, bool collect_pushes);
-  bool step_resident(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
+  int step_resident(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   void report_overlap(int npush, int left);
   void prepare(double drift_dt);
   int overlap_pass(double drift_dt, int pass, double &moved);

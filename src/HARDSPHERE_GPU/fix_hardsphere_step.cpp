@@ -877,18 +877,16 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
 }
 
 /* The whole step on the device (engine/resident_step.h), where there is a resident step:
-   bodies and step bounds up, bodies back.  Returns false, with nothing changed, where the
-   device hands the step back (an overlap, a body beyond its bound, the event cap, a box too
-   small for its cells): the host then resolves it from the same start. */
-bool FixHardSphere::step_resident(Tally &mine, Tally &all)
+   with group all, the atoms' arrays up and the atoms that had events back (returns 2); else
+   the group's bodies and step bounds up and back (returns 1, apply_results() still to do).
+   Returns 0, with nothing changed, where the device hands the step back (an overlap, a
+   missed contact, the event cap, a box too small for its cells): the host then resolves it
+   from the same start. */
+int FixHardSphere::step_resident(Tally &mine, Tally &all)
 {
-  if (!resident || comm->nprocs > 1) return false;
+  if (!resident || comm->nprocs > 1) return 0;
   const double dt = update->dt;
   const double t_start = MPI_Wtime();
-  gather_bodies(dt);
-  const int nb = (int) bodies.size();
-  sbound.resize(nb);
-  for (int b = 0; b < nb; ++b) sbound[b] = step_bound(bodies[b].owner, dt);
   HSGPU::Collide::ResidentBox box;
   for (int d = 0; d < 3; ++d) {
     box.lo[d] = domain->boxlo[d];
@@ -901,18 +899,45 @@ bool FixHardSphere::step_resident(Tally &mine, Tally &all)
   box.reach = reach;
   HSGPU::Collide::ResidentReport report;
   mine = Tally();
-  const double t_gather = MPI_Wtime() - t_start;
+  // Group all: LAMMPS's own arrays go up and the atoms with events come back; else the
+  // group's bodies, gathered here.
+  const bool whole = igroup == 0;
+  double t_gather = 0.0;
   try {
-    resident->run(bodies.data(), sbound.data(), nb, box, step_params(), wsettings, mine, report);
+    if (whole) {
+      HSGPU::Collide::ResidentAtoms a;
+      a.n = atom->nlocal;
+      a.x = a.n ? atom->x[0] : nullptr;
+      a.v = a.n ? atom->v[0] : nullptr;
+      a.f = a.n ? atom->f[0] : nullptr;
+      a.tlast = tlast;
+      a.radius = atom->radius;
+      a.rmass = atom->rmass;
+      a.type = atom->type;
+      a.id = atom->tag;
+      a.id_bytes = (int) sizeof(tagint);
+      a.ftm2v = force->ftm2v;
+      a.bound_floor = bound_floor;
+      a.reach = reach;
+      resident->run_atoms(a, box, step_params(), wsettings, mine, report);
+    } else {
+      gather_bodies(dt);
+      const int nb = (int) bodies.size();
+      sbound.resize(nb);
+      for (int b = 0; b < nb; ++b) sbound[b] = step_bound(bodies[b].owner, dt);
+      t_gather = MPI_Wtime() - t_start;
+      resident->run(bodies.data(), sbound.data(), nb, box, step_params(), wsettings, mine, report);
+    }
   } catch (std::exception &e) {
     error->one(FLERR, "Fix hardsphere: CUDA device {}: {}", backend_device, e.what());
   }
   t_search += t_gather + report.t_search;
   t_resolve += report.t_resolve;
+  run_sum.t_transfer += report.t_upload + report.t_download;
   if (report.outcome != HSGPU::Collide::ResidentOutcome::done) {
     n_declined += 1.0;
     run_sum.declined[(int) report.outcome]++;
-    return false;
+    return 0;
   }
   all = mine;
   n_resident += 1.0;
@@ -923,7 +948,10 @@ bool FixHardSphere::step_resident(Tally &mine, Tally &all)
   last_windows = (double) report.stats.windows;
   last_boundary = 0.0;
   last_gathers = 0.0;
-  return true;
+  if (!whole) return 1;
+  // The atoms' times of their last collision, relative to the end of this step.
+  for (int i = 0; i < atom->nlocal; ++i) tlast[i] = std::max(tlast[i] - dt, NEVER_COLLIDED);
+  return 2;
 }
 
 void FixHardSphere::post_integrate()
@@ -932,7 +960,8 @@ void FixHardSphere::post_integrate()
   step_budget();
   sboost.assign(atom->nlocal, 0.0);
   Tally mine, all;
-  if (!step_resident(mine, all)) {
+  const int on_device = step_resident(mine, all);
+  if (!on_device) {
     prepare(dt);
     if (serial_order)
       step_serial(mine, all);
@@ -952,7 +981,7 @@ void FixHardSphere::post_integrate()
     }
   }
 
-  apply_results(dt);
+  if (on_device != 2) apply_results(dt);    // 2: the device wrote the atoms itself
 
   n_step = (double) all.pair;
   n_total += (double) all.pair;
@@ -993,10 +1022,11 @@ void FixHardSphere::post_run()
     using HSGPU::Collide::ResidentOutcome;
     auto back = [&](ResidentOutcome o) { return r.declined[(int) o]; };
     utils::logmesg(lmp,
-                   "Fix hardsphere: {} of {} steps carried out whole on the device; handed back "
-                   "to the host: {} (overlap at the start), {} (an atom beyond its step bound), "
-                   "{} (maxevents), {} (a periodic length shorter than three search cells)\n",
-                   r.resident, r.steps, back(ResidentOutcome::overlap),
+                   "Fix hardsphere: {} of {} steps carried out whole on the device ({:.4g} s of "
+                   "the search and resolve times copying atoms to the device and back); handed "
+                   "back to the host: {} (overlap at the start), {} (a missed contact), {} "
+                   "(maxevents), {} (a periodic length shorter than three search cells)\n",
+                   r.resident, r.steps, r.t_transfer, back(ResidentOutcome::overlap),
                    back(ResidentOutcome::excursion), back(ResidentOutcome::capped),
                    back(ResidentOutcome::small_box));
   }

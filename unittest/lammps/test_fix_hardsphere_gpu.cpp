@@ -138,7 +138,9 @@ TEST(FixHardSphereGpu, PolydisperseMixtureEqualsCpu)
                         "run 400", 5000);
 }
 
-// Lennard-Jones attraction between the spheres: accelerations differ from atom to atom.
+// Lennard-Jones attraction between the spheres: accelerations differ from atom to atom.  The
+// fix's group is a named one (all the atoms), so the device gets bodies gathered on the host
+// rather than LAMMPS's arrays (the other cases use group all).
 TEST(FixHardSphereGpu, LennardJonesForcesEqualsCpu)
 {
   std::vector<std::string> s = SPHERES;
@@ -148,6 +150,7 @@ TEST(FixHardSphereGpu, LennardJonesForcesEqualsCpu)
             "create_box 1 box", "create_atoms 1 box", "set type 1 diameter 1.0",
             "set type 1 mass 1.0", "velocity all create 1.5 4928459 loop geom",
             "pair_style lj/cut 2.5", "pair_coeff 1 1 0.5 1.0", "comm_modify vel yes",
-            "neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere", "timestep 0.005"});
-  expect_gpu_equals_cpu("lj/cut", s, "fix hs all hardsphere", "run 400", 2000);
+            "neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere", "timestep 0.005",
+            "group spheres type 1"});
+  expect_gpu_equals_cpu("lj/cut", s, "fix hs spheres hardsphere", "run 400", 2000);
 }

@@ -53,19 +53,46 @@ namespace Collide {
   struct ResidentReport {
     ResidentOutcome outcome = ResidentOutcome::done;
     WindowStats stats;
-    long candidates = 0;       // candidate pairs of the step
-    double t_search = 0.0;     // seconds: upload and candidate search
-    double t_resolve = 0.0;    // seconds: windows, checks and download
+    long candidates = 0;        // candidate pairs of the step
+    long changed = 0;           // bodies that had events (the ones copied back)
+    double t_search = 0.0;      // seconds: upload and candidate search
+    double t_resolve = 0.0;     // seconds: windows, checks and download
+    double t_upload = 0.0;      // seconds of t_search copying the bodies to the device
+    double t_download = 0.0;    // seconds of t_resolve copying them back
+  };
+
+  /// A caller's per-atom arrays, when every atom is a body (ResidentStep::run_atoms): the
+  /// bodies are built and the results written on the device, so that only these arrays and
+  /// the atoms that had events cross the link.
+  struct ResidentAtoms {
+    int n;
+    double *x;          // 3 per atom: the drift's end point x0 + v dt (in; out: step end)
+    double *v;          // 3 per atom: half-step velocities (in; out)
+    double *tlast;      // time of the last collision relative to the step start (in; out)
+    const double *f;    // 3 per atom: forces
+    const double *radius, *rmass;
+    const int *type;
+    const void *id;    // atom IDs, id_bytes (4 or 8) each
+    int id_bytes;
+    double ftm2v;          // acceleration = f ftm2v / rmass
+    double bound_floor;    // step bound: min(max(2 |v| dt, bound_floor), reach)
+    double reach;
   };
 
   class ResidentStep {
    public:
     virtual ~ResidentStep() = default;
+    /// The step of the atoms in `a` (start points x - v dt), as run() over the bodies built
+    /// from them, with the step bounds of ResidentAtoms.  On `done` x, v and tlast of the
+    /// atoms that had events are those at the step end (tlast still relative to the step
+    /// start), the others are as given, and `tally` holds the events.
+    virtual void run_atoms(const ResidentAtoms &a, const ResidentBox &box, const Params &p,
+                           const WindowSettings &s, Tally &tally, ResidentReport &report) = 0;
     /// The step of bodies[0 .. n) (states at the step start, x = X0, tref = 0) with their step
     /// bounds: pairs whose start points are within r_i + r_j + bound_i + bound_j (nearest
-    /// image) are the candidates.  On `done` the bodies hold their states at the step end
-    /// (excursions noted up to dt, as end_of_step() leaves them) and `tally` this step's
-    /// events; otherwise both are as given.
+    /// image) are the candidates.  On `done` the bodies that had events hold their states at
+    /// the step end (the others' drift lines did not change: they are as given) and `tally`
+    /// this step's events; otherwise both are as given.
     virtual void run(Body *bodies, const double *bound, int n, const ResidentBox &box,
                      const Params &p, const WindowSettings &s, Tally &tally,
                      ResidentReport &report) = 0;

@@ -95,6 +95,7 @@ namespace Collide {
       int missed;                     // pairs joined by the window's check
       int excursion;                  // bodies beyond their step bound
       int missed_step;                // a pair that was not a candidate could have touched
+      int changed;                    // bodies with events, compacted for the download
       unsigned long long rmax;        // bits of the largest radius
       unsigned long long maxexc;      // bits of the largest excursion in the step
       int candidates;                 // candidate pairs
@@ -517,7 +518,74 @@ namespace Collide {
       }
     }
 
-    double seconds_since(std::chrono::steady_clock::time_point t)
+    // Launch: one thread per body.  The bodies that had events, with their indices, into
+    // out[] and index[] (slots by atomics: the order does not matter to the caller's scatter);
+    // s->changed counts them.
+    __global__ void compact_kernel(const Body *__restrict__ bodies, int n, Body *out, int *index,
+                                   Scalars *s)
+    {
+      const int b = blockIdx.x * blockDim.x + threadIdx.x;
+      if (b >= n || bodies[b].nevents == 0) return;
+      const int slot = atomicAdd(&s->changed, 1);
+      out[slot] = bodies[b];
+      index[slot] = b;
+    }
+
+    // Launch: one thread per atom.  Body i from the caller's arrays, as the host's
+    // FixHardSphere::gather_bodies() builds it, and its step bound (step_bound()).
+    template <class Id>
+    __global__ void build_kernel(const double *__restrict__ x, const double *__restrict__ v,
+                                 const double *__restrict__ f, const double *__restrict__ radius,
+                                 const double *__restrict__ rmass, const double *__restrict__ tlast,
+                                 const int *__restrict__ type, const Id *__restrict__ id, int n,
+                                 double dt, double ftm2v, double floor_bound, double reach,
+                                 Body *bodies, double *bound)
+    {
+      const int i = blockIdx.x * blockDim.x + threadIdx.x;
+      if (i >= n) return;
+      Body b{};
+      for (int d = 0; d < 3; ++d) {
+        b.v[d] = v[3 * i + d];
+        b.x[d] = b.X0[d] = x[3 * i + d] - v[3 * i + d] * dt;
+        b.a[d] = f[3 * i + d] * ftm2v / rmass[i];
+        b.rest[d] = -1;
+      }
+      b.radius = radius[i];
+      b.mass = rmass[i];
+      b.tlast = tlast[i];
+      b.id = (long) id[i];
+      b.type = type[i];
+      b.owner = i;
+      bodies[i] = b;
+      const double *u = v + 3 * i;
+      const double speed = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+      bound[i] = fmin(fmax(2.0 * speed * dt, floor_bound), reach);
+    }
+
+    /// What goes back to the caller for an atom that had events.
+    struct AtomResult {
+      int index;
+      double x[3], v[3], tlast;
+    };
+
+    // Launch: one thread per body.  The atoms that had events: end-of-step position, velocity
+    // and time of the last collision into out[] (slots by atomics); s->changed counts them.
+    __global__ void atom_results_kernel(const Body *__restrict__ bodies, int n, double dt,
+                                        AtomResult *out, Scalars *s)
+    {
+      const int b = blockIdx.x * blockDim.x + threadIdx.x;
+      if (b >= n || bodies[b].nevents == 0) return;
+      AtomResult r;
+      r.index = bodies[b].owner;
+      drift_position(bodies[b], dt, r.x);
+      for (int d = 0; d < 3; ++d) r.v[d] = bodies[b].v[d];
+      r.tlast = bodies[b].tlast;
+      out[atomicAdd(&s->changed, 1)] = r;
+    }
+
+    using Clock = std::chrono::steady_clock;
+
+    double seconds_since(Clock::time_point t)
     {
       return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
     }
@@ -544,6 +612,12 @@ namespace Collide {
               &d_best,      &d_sums,   &d_lexc,  &d_temp})
           b->release();
         if (host_scalars) cudaFreeHost(host_scalars);
+        if (host_changed) cudaFreeHost(host_changed);
+        if (host_index) cudaFreeHost(host_index);
+        if (host_results) cudaFreeHost(host_results);
+        for (DeviceBuffer *b :
+             {&d_ax, &d_av, &d_af, &d_arad, &d_amass, &d_atlast, &d_atype, &d_aid})
+          b->release();
         if (stream) cudaStreamDestroy(stream);
       }
 
@@ -552,11 +626,19 @@ namespace Collide {
 
       void run(Body *bodies, const double *bound, int n, const ResidentBox &box, const Params &p,
                const WindowSettings &s, Tally &tally, ResidentReport &report) override;
+      void run_atoms(const ResidentAtoms &a, const ResidentBox &box, const Params &p,
+                     const WindowSettings &s, Tally &tally, ResidentReport &report) override;
 
      private:
       int device;
       cudaStream_t stream = nullptr;
       Scalars *host_scalars = nullptr;
+      Body *host_changed = nullptr;    // pinned: the bodies that had events, on their way back
+      int *host_index = nullptr;
+      int host_capacity = 0;
+      AtomResult *host_results = nullptr;    // pinned: run_atoms()'s results on their way back
+      int results_capacity = 0;
+      DeviceBuffer d_ax, d_av, d_af, d_arad, d_amass, d_atlast, d_atype, d_aid;
       WindowChooser chooser;
       int n = 0, ne = 0;
       double tol = 0.0;    // overlap tolerance of the step
@@ -596,6 +678,12 @@ namespace Collide {
                    "cub::DeviceScan");
       }
 
+      double *d_epair = nullptr;          // the restitution table, after the scalars
+      Clock::time_point windows_start;    // when the last step's windows began
+
+      void prepare(const Params &p);
+      bool resolve_step(const ResidentBox &box, const Params &p, const WindowSettings &s,
+                        Tally &total, ResidentReport &report, Clock::time_point t_start);
       ResidentOutcome search(const ResidentBox &box, double maxreach, long &candidates);
       void verify_groups(int ngroups, const char *where);
       int components();
@@ -775,18 +863,9 @@ namespace Collide {
                      where, bad, cross, gstart[ngroups], n);
     }
 
-    void CudaResidentStep::run(Body *bodies, const double *bound, int nbodies,
-                               const ResidentBox &box, const Params &p, const WindowSettings &s,
-                               Tally &tally, ResidentReport &report)
+    /* Buffers for n bodies, the restitution table on the device. */
+    void CudaResidentStep::prepare(const Params &p)
     {
-      const auto t_start = std::chrono::steady_clock::now();
-      report = ResidentReport();
-      n = nbodies;
-      if (n <= 0) return;
-      tol = box.overlap_tol;
-      cuda_check(cudaSetDevice(device), "cudaSetDevice");
-      (void) cudaGetLastError();
-
       const size_t ntypes2 = (size_t) (p.ntypes + 1) * (p.ntypes + 1);
       d_bodies.reserve(n * sizeof(Body), "cudaMalloc(bodies)");
       d_snap.reserve(n * sizeof(Body), "cudaMalloc(bodies)");
@@ -799,16 +878,19 @@ namespace Collide {
                               &d_gstart, &d_gmembers})
         b->reserve((n + 1) * sizeof(int), "cudaMalloc(groups)");
       // The restitution table lives after the scalars.
-      double *d_epair = reinterpret_cast<double *>(d_scalars.as<char>() + sizeof(Scalars));
-      cuda_check(
-          cudaMemcpyAsync(d_bodies.ptr, bodies, n * sizeof(Body), cudaMemcpyHostToDevice, stream),
-          "cudaMemcpy(bodies)");
-      cuda_check(
-          cudaMemcpyAsync(d_bound.ptr, bound, n * sizeof(double), cudaMemcpyHostToDevice, stream),
-          "cudaMemcpy(bounds)");
+      d_epair = reinterpret_cast<double *>(d_scalars.as<char>() + sizeof(Scalars));
       cuda_check(cudaMemcpyAsync(d_epair, p.epair, ntypes2 * sizeof(double), cudaMemcpyHostToDevice,
                                  stream),
                  "cudaMemcpy(restitution table)");
+    }
+
+    /* The step of the n bodies in d_bodies with their step bounds in d_bound: search, windows,
+       the step's check.  Returns false where it declines (report.outcome says why); else the
+       bodies are at the step end on the device and `total` holds the events. */
+    bool CudaResidentStep::resolve_step(const ResidentBox &box, const Params &p,
+                                        const WindowSettings &s, Tally &total,
+                                        ResidentReport &report, Clock::time_point t_start)
+    {
       // n + 1 entries for the scans: the last ones stay 0.
       for (DeviceBuffer *b : {&d_isroot, &d_rsize})
         cuda_check(cudaMemsetAsync(b->as<int>() + n, 0, sizeof(int), stream), "cudaMemset");
@@ -825,12 +907,13 @@ namespace Collide {
       std::memcpy(&vmax2, &sc.vmax2, sizeof(double));
       if (sc.overlap) {
         report.outcome = ResidentOutcome::overlap;
-        return;
+        return false;
       }
       report.outcome = search(box, maxreach, report.candidates);
-      if (report.outcome != ResidentOutcome::done) return;
+      if (report.outcome != ResidentOutcome::done) return false;
       report.t_search = seconds_since(t_start);
-      const auto t_windows = std::chrono::steady_clock::now();
+      windows_start = Clock::now();
+      const auto t_windows = windows_start;
 
       const WindowChooser chooser_at_start = chooser;
       const double dt = p.dt;
@@ -839,7 +922,6 @@ namespace Collide {
       const GroupGraph graph{d_bodies.as<Body>(), d_edges.as<Edge>(), d_adj_start.as<int>(),
                              d_adj.as<int>(),     d_best.as<Event>(), d_joined.as<unsigned char>()};
       WindowStats &stats = report.stats;
-      Tally total;
       double t0 = 0.0;
       chooser.start_step(dt);
       int k = 0;
@@ -904,7 +986,7 @@ namespace Collide {
           win = r.win;
           if (win.capped || win.events > budget) {
             decline(ResidentOutcome::capped);
-            return;
+            return false;
           }
           if (r.missed == 0) break;
           // Joined pairs that could have touched: the window again from its start.
@@ -944,7 +1026,7 @@ namespace Collide {
         // Past the reach the caller's ghosts cover: the caller stops the run.
         if (maxexc > box.reach) {
           decline(ResidentOutcome::excursion);
-          return;
+          return false;
         }
         step_check_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
             d_bodies.as<Body>(), d_bound.as<double>(), d_lexc.as<double>(), n, grid,
@@ -953,15 +1035,140 @@ namespace Collide {
         launched("step_check_kernel");
         if (download_scalars().missed_step) {
           decline(ResidentOutcome::excursion);
-          return;
+          return false;
         }
       }
+      return true;
+    }
+
+    void CudaResidentStep::run(Body *bodies, const double *bound, int nbodies,
+                               const ResidentBox &box, const Params &p, const WindowSettings &s,
+                               Tally &tally, ResidentReport &report)
+    {
+      const auto t_start = std::chrono::steady_clock::now();
+      report = ResidentReport();
+      n = nbodies;
+      if (n <= 0) return;
+      tol = box.overlap_tol;
+      cuda_check(cudaSetDevice(device), "cudaSetDevice");
+      (void) cudaGetLastError();
+
+      prepare(p);
       cuda_check(
-          cudaMemcpyAsync(bodies, d_bodies.ptr, n * sizeof(Body), cudaMemcpyDeviceToHost, stream),
-          "cudaMemcpy(bodies back)");
+          cudaMemcpyAsync(d_bodies.ptr, bodies, n * sizeof(Body), cudaMemcpyHostToDevice, stream),
+          "cudaMemcpy(bodies)");
+      cuda_check(
+          cudaMemcpyAsync(d_bound.ptr, bound, n * sizeof(double), cudaMemcpyHostToDevice, stream),
+          "cudaMemcpy(bounds)");
+      cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(bodies)");
+      report.t_upload = seconds_since(t_start);
+      Tally total;
+      if (!resolve_step(box, p, s, total, report, t_start)) return;
+      const auto t_windows = windows_start;
+      // Only the bodies that had events come back (the others' drift lines did not change).
+      const auto t_down = std::chrono::steady_clock::now();
+      zero(&scalars()->changed);
+      compact_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_bodies.as<Body>(), n, d_snap.as<Body>(),
+                                                       d_gid.as<int>(), scalars());
+      launched("compact_kernel");
+      const int changed = download_scalars().changed;
+      if (changed > host_capacity) {
+        if (host_changed) cudaFreeHost(host_changed);
+        if (host_index) cudaFreeHost(host_index);
+        host_changed = nullptr;
+        host_index = nullptr;
+        host_capacity = changed + changed / 4 + 64;
+        cuda_check(cudaMallocHost(&host_changed, host_capacity * sizeof(Body)),
+                   "cudaMallocHost(bodies back)");
+        cuda_check(cudaMallocHost(&host_index, host_capacity * sizeof(int)),
+                   "cudaMallocHost(bodies back)");
+      }
+      cuda_check(cudaMemcpyAsync(host_changed, d_snap.ptr, changed * sizeof(Body),
+                                 cudaMemcpyDeviceToHost, stream),
+                 "cudaMemcpy(bodies back)");
+      cuda_check(cudaMemcpyAsync(host_index, d_gid.ptr, changed * sizeof(int),
+                                 cudaMemcpyDeviceToHost, stream),
+                 "cudaMemcpy(bodies back)");
       cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(bodies back)");
+      for (int k = 0; k < changed; ++k) bodies[host_index[k]] = host_changed[k];
+      report.changed = changed;
+      report.t_download = seconds_since(t_down);
       tally.add(total);
       report.t_resolve = seconds_since(t_windows);
+    }
+
+    void CudaResidentStep::run_atoms(const ResidentAtoms &a, const ResidentBox &box,
+                                     const Params &p, const WindowSettings &s, Tally &tally,
+                                     ResidentReport &report)
+    {
+      const auto t_start = Clock::now();
+      report = ResidentReport();
+      n = a.n;
+      if (n <= 0) return;
+      tol = box.overlap_tol;
+      cuda_check(cudaSetDevice(device), "cudaSetDevice");
+      (void) cudaGetLastError();
+      prepare(p);
+      auto up = [&](DeviceBuffer &d, const void *h, size_t bytes) {
+        d.reserve(bytes + 8, "cudaMalloc(atoms)");
+        cuda_check(cudaMemcpyAsync(d.ptr, h, bytes, cudaMemcpyHostToDevice, stream),
+                   "cudaMemcpy(atoms)");
+      };
+      const size_t n3 = (size_t) 3 * n * sizeof(double), n1 = (size_t) n * sizeof(double);
+      up(d_ax, a.x, n3);
+      up(d_av, a.v, n3);
+      up(d_af, a.f, n3);
+      up(d_arad, a.radius, n1);
+      up(d_amass, a.rmass, n1);
+      up(d_atlast, a.tlast, n1);
+      up(d_atype, a.type, (size_t) n * sizeof(int));
+      up(d_aid, a.id, (size_t) n * a.id_bytes);
+      cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(atoms)");
+      report.t_upload = seconds_since(t_start);
+      if (a.id_bytes == 8)
+        build_kernel<long long><<<nblocks(n), BLOCK, 0, stream>>>(
+            d_ax.as<double>(), d_av.as<double>(), d_af.as<double>(), d_arad.as<double>(),
+            d_amass.as<double>(), d_atlast.as<double>(), d_atype.as<int>(), d_aid.as<long long>(),
+            n, p.dt, a.ftm2v, a.bound_floor, a.reach, d_bodies.as<Body>(), d_bound.as<double>());
+      else
+        build_kernel<int><<<nblocks(n), BLOCK, 0, stream>>>(
+            d_ax.as<double>(), d_av.as<double>(), d_af.as<double>(), d_arad.as<double>(),
+            d_amass.as<double>(), d_atlast.as<double>(), d_atype.as<int>(), d_aid.as<int>(), n,
+            p.dt, a.ftm2v, a.bound_floor, a.reach, d_bodies.as<Body>(), d_bound.as<double>());
+      launched("build_kernel");
+      Tally total;
+      if (!resolve_step(box, p, s, total, report, t_start)) return;
+      // Only the atoms that had events come back.
+      const auto t_down = Clock::now();
+      zero(&scalars()->changed);
+      d_sums.reserve((size_t) n * sizeof(AtomResult), "cudaMalloc(atom results)");
+      atom_results_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_bodies.as<Body>(), n, p.dt,
+                                                            d_sums.as<AtomResult>(), scalars());
+      launched("atom_results_kernel");
+      const int changed = download_scalars().changed;
+      if (changed > results_capacity) {
+        if (host_results) cudaFreeHost(host_results);
+        host_results = nullptr;
+        results_capacity = changed + changed / 4 + 64;
+        cuda_check(cudaMallocHost(&host_results, results_capacity * sizeof(AtomResult)),
+                   "cudaMallocHost(atom results)");
+      }
+      cuda_check(cudaMemcpyAsync(host_results, d_sums.ptr, changed * sizeof(AtomResult),
+                                 cudaMemcpyDeviceToHost, stream),
+                 "cudaMemcpy(atom results)");
+      cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(atom results)");
+      for (int k = 0; k < changed; ++k) {
+        const AtomResult &r = host_results[k];
+        for (int d = 0; d < 3; ++d) {
+          a.x[3 * r.index + d] = r.x[d];
+          a.v[3 * r.index + d] = r.v[d];
+        }
+        a.tlast[r.index] = r.tlast;
+      }
+      report.changed = changed;
+      report.t_download = seconds_since(t_down);
+      tally.add(total);
+      report.t_resolve = seconds_since(windows_start);
     }
 
   }    // namespace
