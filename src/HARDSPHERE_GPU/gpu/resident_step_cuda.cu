@@ -17,13 +17,19 @@
                reduced (CUB, a fixed order), excursions, pairs not joined that could have
                touched joined (if any: bodies back to the snapshot, components again, resolved
                again)
-     end:      excursions to dt, the step's check against the step bounds; download bodies
+     end:      excursions to dt, the step's check (bodies beyond their step bound: any pair
+               with a neighbour that was not a candidate and could have touched declines the
+               step); only the bodies that had events go back, compacted (run: whole Bodies;
+               run_atoms: end-of-step x, v and tlast, scattered into the caller's arrays)
 
    Every body and event computation is core/'s, compiled with --fmad=false (collide.cmake), so
    the events, and every bit of the bodies, are the step driver's.  Components are sets, the
    order of members and edges within a group does not change which event is earliest (no two
    events have equal keys), and groups are numbered by their smallest member as the driver
-   numbers them; only the tallies' floating-point sums are added in another order. */
+   numbers them; only the tallies' floating-point sums are added in another order.
+
+   Debugging aid: HSGPU_RESIDENT_VERIFY=1 copies every window's groups to the host and reports
+   bodies placed twice or not at all and joined edges between groups on stderr. */
 #include "resident_step_cuda.h"
 
 #include "collision_group_loop.h"
@@ -170,27 +176,15 @@ namespace Collide {
       if (k == n - 1 || key[k] != key[k + 1]) cend[key[k]] = k + 1;
     }
 
-    // Launch: one thread per sorted position k (n), body i = order[k].  Visits the bodies j > i
-    // in the 27 cells around i's and tests the pair as the host search does: lower ID first,
-    // nearest image of the start points, |r| <= (r_lo + r_hi) + (bound_lo + bound_hi).  FILL
-    // false: count[k] = its pairs, s->overlap where a pair is closer than (1 - tol) contact.
-    // FILL true: the pairs go to edges[offset[k] ...], in visiting order.  Reads the start
-    // points of the neighbours: about 27 x (cell occupancy) Bodies per thread, from L2.
-    template <bool FILL>
-    __global__ void pair_kernel(const Body *__restrict__ bodies, const double *__restrict__ bound,
-                                int n, Grid g, const int *__restrict__ key,
-                                const int *__restrict__ order, const int *__restrict__ cstart,
-                                const int *__restrict__ cend, int *count,
-                                const int *__restrict__ offset, Edge *edges, double tol, Scalars *s)
+    // Calls visit(j, lo, hi, ilo, ihi, r, sh) for every body j != i in the 27 cells around c,
+    // the cell of body i (each cell once), with the pair ordered lower ID first (lo = body ilo)
+    // and r, sh the nearest-image separation of their start points and its image shift.
+    template <class Visit>
+    __device__ void for_each_near(const Body *bodies, int i, int c, const Grid &g, const int *order,
+                                  const int *cstart, const int *cend, Visit &&visit)
     {
-      const int k = blockIdx.x * blockDim.x + threadIdx.x;
-      if (k >= n) return;
-      const int i = order[k];
-      const int c = key[k];
       const int ci[3] = {c % g.n[0], (c / g.n[0]) % g.n[1], c / (g.n[0] * g.n[1])};
       const Body &bi = bodies[i];
-      int found = 0, overlap = 0;
-      Edge *out = FILL ? edges + offset[k] : nullptr;
       for (int dz = -1; dz <= 1; ++dz) {
         int cz = ci[2] + dz;
         if (g.periodic[2])
@@ -212,31 +206,56 @@ namespace Collide {
             const int cc = (cz * g.n[1] + cy) * g.n[0] + cx;
             for (int m = cstart[cc]; m < cend[cc]; ++m) {
               const int j = order[m];
-              if (j <= i) continue;
+              if (j == i) continue;
               const Body &bj = bodies[j];
               const bool swap = bj.id < bi.id;
-              const Body &lo = swap ? bj : bi, &hi = swap ? bi : bj;
-              const int ilo = swap ? j : i, ihi = swap ? i : j;
               double r[3], sh[3];
+              const Body &lo = swap ? bj : bi, &hi = swap ? bi : bj;
               nearest_image_separation(lo.X0, hi.X0, g.prd, g.periodic, r, sh);
-              const double range = (lo.radius + hi.radius) + (bound[ilo] + bound[ihi]);
-              const double d2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
-              if (d2 > range * range) continue;
-              if (FILL) {
-                Edge e;
-                e.i = ilo;
-                e.j = ihi;
-                for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
-                out[found] = e;
-              } else {
-                const double lim = (lo.radius + hi.radius) * (1.0 - tol);
-                if (d2 < lim * lim) overlap = 1;
-              }
-              ++found;
+              visit(j, lo, hi, swap ? j : i, swap ? i : j, r, sh);
             }
           }
         }
       }
+    }
+
+    // Launch: one thread per sorted position k (n), body i = order[k].  Visits the bodies j > i
+    // in the 27 cells around i's and tests the pair as the host search does: lower ID first,
+    // nearest image of the start points, |r| <= (r_lo + r_hi) + (bound_lo + bound_hi).  FILL
+    // false: count[k] = its pairs, s->overlap where a pair is closer than (1 - tol) contact.
+    // FILL true: the pairs go to edges[offset[k] ...], in visiting order.  Reads the start
+    // points of the neighbours: about 27 x (cell occupancy) Bodies per thread, from L2.
+    template <bool FILL>
+    __global__ void pair_kernel(const Body *__restrict__ bodies, const double *__restrict__ bound,
+                                int n, Grid g, const int *__restrict__ key,
+                                const int *__restrict__ order, const int *__restrict__ cstart,
+                                const int *__restrict__ cend, int *count,
+                                const int *__restrict__ offset, Edge *edges, double tol, Scalars *s)
+    {
+      const int k = blockIdx.x * blockDim.x + threadIdx.x;
+      if (k >= n) return;
+      const int i = order[k];
+      int found = 0, overlap = 0;
+      Edge *out = FILL ? edges + offset[k] : nullptr;
+      for_each_near(bodies, i, key[k], g, order, cstart, cend,
+                    [&](int j, const Body &lo, const Body &hi, int ilo, int ihi, const double *r,
+                        const double *sh) {
+                      if (j <= i) return;    // each pair once, from its lower index
+                      const double range = (lo.radius + hi.radius) + (bound[ilo] + bound[ihi]);
+                      const double d2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+                      if (d2 > range * range) return;
+                      if (FILL) {
+                        Edge e;
+                        e.i = ilo;
+                        e.j = ihi;
+                        for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
+                        out[found] = e;
+                      } else {
+                        const double lim = (lo.radius + hi.radius) * (1.0 - tol);
+                        if (d2 < lim * lim) overlap = 1;
+                      }
+                      ++found;
+                    });
       if (!FILL) {
         count[k] = found;
         if (overlap) s->overlap = 1;
@@ -476,46 +495,15 @@ namespace Collide {
         s->missed_step = 1;
         return;
       }
-      const int c = key[k];
-      const int ci[3] = {c % g.n[0], (c / g.n[0]) % g.n[1], c / (g.n[0] * g.n[1])};
-      const Body &bi = bodies[i];
-      for (int dz = -1; dz <= 1; ++dz) {
-        int cz = ci[2] + dz;
-        if (g.periodic[2])
-          cz = (cz + g.n[2]) % g.n[2];
-        else if (cz < 0 || cz >= g.n[2])
-          continue;
-        for (int dy = -1; dy <= 1; ++dy) {
-          int cy = ci[1] + dy;
-          if (g.periodic[1])
-            cy = (cy + g.n[1]) % g.n[1];
-          else if (cy < 0 || cy >= g.n[1])
-            continue;
-          for (int dx = -1; dx <= 1; ++dx) {
-            int cx = ci[0] + dx;
-            if (g.periodic[0])
-              cx = (cx + g.n[0]) % g.n[0];
-            else if (cx < 0 || cx >= g.n[0])
-              continue;
-            const int cc = (cz * g.n[1] + cy) * g.n[0] + cx;
-            for (int m = cstart[cc]; m < cend[cc]; ++m) {
-              const int j = order[m];
-              if (j == i) continue;
-              const Body &bj = bodies[j];
-              const bool swap = bj.id < bi.id;
-              const Body &lo = swap ? bj : bi, &hi = swap ? bi : bj;
-              const int ilo = swap ? j : i, ihi = swap ? i : j;
-              double r[3], sh[3];
-              nearest_image_separation(lo.X0, hi.X0, g.prd, g.periodic, r, sh);
-              const double dist = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
-              const double contact = lo.radius + hi.radius;
-              if (dist <= contact + (bound[ilo] + bound[ihi])) continue;    // a candidate
-              if (dist - contact > exc[i] + exc[j] + tol * contact) continue;
-              s->missed_step = 1;
-            }
-          }
-        }
-      }
+      for_each_near(bodies, i, key[k], g, order, cstart, cend,
+                    [&](int j, const Body &lo, const Body &hi, int ilo, int ihi, const double *r,
+                        const double *) {
+                      const double dist = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+                      const double contact = lo.radius + hi.radius;
+                      if (dist <= contact + (bound[ilo] + bound[ihi])) return;    // a candidate
+                      if (dist - contact > exc[i] + exc[j] + tol * contact) return;
+                      s->missed_step = 1;
+                    });
     }
 
     // Launch: one thread per body.  The bodies that had events, with their indices, into
