@@ -174,19 +174,8 @@ bool FixHardSphere::gather_bodies(double drift_dt)
   for (int i = 0; i < nlocal; ++i) {
     if (body_of[i] < 0) continue;
     Body &b = bodies[body_of[i]];
-    std::memset(&b, 0, sizeof(b));
-    for (int d = 0; d < 3; ++d) {
-      b.v[d] = v[i][d];
-      b.x[d] = b.X0[d] = x[i][d] - v[i][d] * drift_dt;
-      b.a[d] = f[i][d] * ftm2v / rmass[i];
-      b.rest[d] = -1;
-    }
-    b.radius = radius[i];
-    b.mass = rmass[i];
-    b.tlast = tlast[i];
-    b.id = (long) tag[i];
-    b.type = type[i];
-    b.owner = i;
+    b = HSGPU::Collide::start_body(x[i], v[i], f[i], radius[i], rmass[i], tlast[i], (long) tag[i],
+                                   type[i], i, drift_dt, ftm2v);
     for (int fc = 0; fc < HSGPU::Collide::NFACES; ++fc)
       if (walls.on[fc]) {
         const int d = fc / 2;

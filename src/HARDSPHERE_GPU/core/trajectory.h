@@ -112,6 +112,30 @@ namespace Collide {
     return (f & 1) ? -1.0 : 1.0;
   }
 
+  /// A body at the start of a step of length dt, from an atom's state after the drift: its
+  /// position x, half-step velocity v and force f (3 each); the start point is x - v dt and
+  /// the acceleration f ftm2v / mass.  The one definition that the host (fix hardsphere) and
+  /// the device (the resident step) both use, so that both start from the same bits.
+  HSGPU_HD Body start_body(const double *x, const double *v, const double *f, double radius,
+                           double mass, double tlast, long id, int type, int owner, double dt,
+                           double ftm2v)
+  {
+    Body b{};
+    for (int d = 0; d < 3; ++d) {
+      b.v[d] = v[d];
+      b.x[d] = b.X0[d] = x[d] - v[d] * dt;
+      b.a[d] = f[d] * ftm2v / mass;
+      b.rest[d] = -1;
+    }
+    b.radius = radius;
+    b.mass = mass;
+    b.tlast = tlast;
+    b.id = id;
+    b.type = type;
+    b.owner = owner;
+    return b;
+  }
+
   /// Drift-line position of b at time t.
   HSGPU_HD void drift_position(const Body &b, double t, double *p)
   {

@@ -531,19 +531,8 @@ namespace Collide {
     {
       const int i = blockIdx.x * blockDim.x + threadIdx.x;
       if (i >= n) return;
-      Body b{};
-      for (int d = 0; d < 3; ++d) {
-        b.v[d] = v[3 * i + d];
-        b.x[d] = b.X0[d] = x[3 * i + d] - v[3 * i + d] * dt;
-        b.a[d] = f[3 * i + d] * ftm2v / rmass[i];
-        b.rest[d] = -1;
-      }
-      b.radius = radius[i];
-      b.mass = rmass[i];
-      b.tlast = tlast[i];
-      b.id = (long) id[i];
-      b.type = type[i];
-      b.owner = i;
+      const Body b = start_body(x + 3 * i, v + 3 * i, f + 3 * i, radius[i], rmass[i], tlast[i],
+                                (long) id[i], type[i], i, dt, ftm2v);
       bodies[i] = b;
       const double *u = v + 3 * i;
       const double speed = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
