@@ -106,9 +106,7 @@ void FixHardSphere::forward_state(double drift_dt)
    failed check of this step raised it to), at most the reach. */
 double FixHardSphere::step_bound(int i, double drift_dt) const
 {
-  const double *v = atom->v[i];
-  const double speed = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-  return std::min(std::max(std::max(2.0 * speed * drift_dt, bound_floor), sboost[i]), reach);
+  return HSGPU::Collide::drift_bound(atom->v[i], drift_dt, bound_floor, sboost[i], reach);
 }
 
 /* The step's checks on the fastest atom (radius growth, drift within the reach the ghost

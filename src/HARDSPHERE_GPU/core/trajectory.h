@@ -136,6 +136,17 @@ namespace Collide {
     return b;
   }
 
+  /// A body's displacement bound for a step of length dt: twice its drift |v| dt, at least
+  /// `least` and `raised`, at most `most` (std::max/std::min order, on host and device).
+  HSGPU_HD double drift_bound(const double *v, double dt, double least, double raised, double most)
+  {
+    const double speed = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    double d = 2.0 * speed * dt;
+    d = d < least ? least : d;
+    d = d < raised ? raised : d;
+    return most < d ? most : d;
+  }
+
   /// Drift-line position of b at time t.
   HSGPU_HD void drift_position(const Body &b, double t, double *p)
   {

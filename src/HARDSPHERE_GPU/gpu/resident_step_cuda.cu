@@ -56,6 +56,7 @@ namespace Collide {
 
     using GPU::cuda_check;
     using GPU::DeviceBuffer;
+    using GPU::PinnedBuffer;
 
     constexpr int BLOCK = 256;
     constexpr int GROUP_BLOCK = 128;
@@ -519,8 +520,9 @@ namespace Collide {
       index[slot] = b;
     }
 
-    // Launch: one thread per atom.  Body i from the caller's arrays, as the host's
-    // FixHardSphere::gather_bodies() builds it, and its step bound (step_bound()).
+    // Launch: one thread per atom.  Body i from the caller's arrays (start_body(), as the
+    // host's FixHardSphere::gather_bodies() builds it) and its step bound (drift_bound(), as
+    // FixHardSphere::step_bound() with no bound raised by a failed check).
     template <class Id>
     __global__ void build_kernel(const double *__restrict__ x, const double *__restrict__ v,
                                  const double *__restrict__ f, const double *__restrict__ radius,
@@ -534,9 +536,7 @@ namespace Collide {
       const Body b = start_body(x + 3 * i, v + 3 * i, f + 3 * i, radius[i], rmass[i], tlast[i],
                                 (long) id[i], type[i], i, dt, ftm2v);
       bodies[i] = b;
-      const double *u = v + 3 * i;
-      const double speed = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-      bound[i] = fmin(fmax(2.0 * speed * dt, floor_bound), reach);
+      bound[i] = drift_bound(v + 3 * i, dt, floor_bound, 0.0, reach);
     }
 
     /// What goes back to the caller for an atom that had events.
@@ -589,9 +589,7 @@ namespace Collide {
               &d_best,      &d_sums,   &d_lexc,  &d_temp})
           b->release();
         if (host_scalars) cudaFreeHost(host_scalars);
-        if (host_changed) cudaFreeHost(host_changed);
-        if (host_index) cudaFreeHost(host_index);
-        if (host_results) cudaFreeHost(host_results);
+        for (PinnedBuffer *b : {&host_changed, &host_index, &host_results}) b->release();
         for (DeviceBuffer *b :
              {&d_ax, &d_av, &d_af, &d_arad, &d_amass, &d_atlast, &d_atype, &d_aid})
           b->release();
@@ -610,11 +608,9 @@ namespace Collide {
       int device;
       cudaStream_t stream = nullptr;
       Scalars *host_scalars = nullptr;
-      Body *host_changed = nullptr;    // pinned: the bodies that had events, on their way back
-      int *host_index = nullptr;
-      int host_capacity = 0;
-      AtomResult *host_results = nullptr;    // pinned: run_atoms()'s results on their way back
-      int results_capacity = 0;
+      // Pinned: what comes back, run()'s bodies that had events with their indices, or
+      // run_atoms()'s results.
+      PinnedBuffer host_changed, host_index, host_results;
       DeviceBuffer d_ax, d_av, d_af, d_arad, d_amass, d_atlast, d_atype, d_aid;
       WindowChooser chooser;
       int n = 0, ne = 0;
@@ -635,6 +631,13 @@ namespace Collide {
                    "cudaMemcpy(scalars)");
         cuda_check(cudaStreamSynchronize(stream), "resident step");
         return *host_scalars;
+      }
+
+      /// Enqueues a copy of the first `bytes` of src into dst (grown as needed).
+      void fetch(const DeviceBuffer &src, PinnedBuffer &dst, size_t bytes, const char *what)
+      {
+        dst.reserve(bytes + 8, what);
+        cuda_check(cudaMemcpyAsync(dst.ptr, src.ptr, bytes, cudaMemcpyDeviceToHost, stream), what);
       }
 
       template <class T> void zero(T *field)
@@ -1049,25 +1052,12 @@ namespace Collide {
                                                        d_gid.as<int>(), scalars());
       launched("compact_kernel");
       const int changed = download_scalars().changed;
-      if (changed > host_capacity) {
-        if (host_changed) cudaFreeHost(host_changed);
-        if (host_index) cudaFreeHost(host_index);
-        host_changed = nullptr;
-        host_index = nullptr;
-        host_capacity = changed + changed / 4 + 64;
-        cuda_check(cudaMallocHost(&host_changed, host_capacity * sizeof(Body)),
-                   "cudaMallocHost(bodies back)");
-        cuda_check(cudaMallocHost(&host_index, host_capacity * sizeof(int)),
-                   "cudaMallocHost(bodies back)");
-      }
-      cuda_check(cudaMemcpyAsync(host_changed, d_snap.ptr, changed * sizeof(Body),
-                                 cudaMemcpyDeviceToHost, stream),
-                 "cudaMemcpy(bodies back)");
-      cuda_check(cudaMemcpyAsync(host_index, d_gid.ptr, changed * sizeof(int),
-                                 cudaMemcpyDeviceToHost, stream),
-                 "cudaMemcpy(bodies back)");
+      fetch(d_snap, host_changed, changed * sizeof(Body), "cudaMemcpy(bodies back)");
+      fetch(d_gid, host_index, changed * sizeof(int), "cudaMemcpy(bodies back)");
       cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(bodies back)");
-      for (int k = 0; k < changed; ++k) bodies[host_index[k]] = host_changed[k];
+      const Body *back = host_changed.as<Body>();
+      const int *index = host_index.as<int>();
+      for (int k = 0; k < changed; ++k) bodies[index[k]] = back[k];
       report.changed = changed;
       report.t_download = seconds_since(t_down);
       tally.add(total);
@@ -1123,19 +1113,10 @@ namespace Collide {
                                                             d_sums.as<AtomResult>(), scalars());
       launched("atom_results_kernel");
       const int changed = download_scalars().changed;
-      if (changed > results_capacity) {
-        if (host_results) cudaFreeHost(host_results);
-        host_results = nullptr;
-        results_capacity = changed + changed / 4 + 64;
-        cuda_check(cudaMallocHost(&host_results, results_capacity * sizeof(AtomResult)),
-                   "cudaMallocHost(atom results)");
-      }
-      cuda_check(cudaMemcpyAsync(host_results, d_sums.ptr, changed * sizeof(AtomResult),
-                                 cudaMemcpyDeviceToHost, stream),
-                 "cudaMemcpy(atom results)");
+      fetch(d_sums, host_results, changed * sizeof(AtomResult), "cudaMemcpy(atom results)");
       cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(atom results)");
       for (int k = 0; k < changed; ++k) {
-        const AtomResult &r = host_results[k];
+        const AtomResult &r = host_results.as<AtomResult>()[k];
         for (int d = 0; d < 3; ++d) {
           a.x[3 * r.index + d] = r.x[d];
           a.v[3 * r.index + d] = r.v[d];
