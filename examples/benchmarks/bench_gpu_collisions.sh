@@ -19,6 +19,10 @@
 # and resolve ms/step (the fix's timers: search = upload and candidate search, resolve =
 # windows, checks and download) and the part of both spent copying (the run summary's
 # seconds); collisions per second of fix time on the GPU; steps carried out on the device.
+#
+# HSGPU_BENCH_SERIAL=1 adds a third run per repeat, 'gpu yes order serial' (the seed paper's
+# loop on the device: one device-wide earliest event per iteration), and three columns: its
+# fix ms/step, its ratio to the default order's on the GPU, and its microseconds per event.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
@@ -41,11 +45,14 @@ cp "$scenes"/in.fluid "$work"/
 for f in "$work"/in.*; do
   sed 's/^\(fix *hs all hardsphere.*\)$/\1 gpu yes/' "$f" > "$f.gpu"
   grep -q 'hardsphere.*gpu yes' "$f.gpu" || { echo "no fix hardsphere line in $f" >&2; exit 2; }
+  sed 's/^\(fix *hs all hardsphere.*\)$/\1 gpu yes order serial/' "$f" > "$f.gpus"
 done
 
 median() { sort -g | awk '{v[NR] = $1} END {print (NR % 2) ? v[(NR + 1) / 2] : 0.5 * (v[NR / 2] + v[NR / 2 + 1])}'; }
 
-# One run; prints "modify search resolve transfer collisions resident steps".
+serial=${HSGPU_BENCH_SERIAL:-0}
+
+# One run; prints "modify search resolve transfer collisions resident steps events".
 one() {
   local input=$1 log=$2; shift 2
   (cd "$work" && "$lmp" -in "$input" -var plugin "$plugin" "$@" -log "$log" -echo none \
@@ -54,8 +61,9 @@ one() {
   modify=$(awk '/^Modify /{print $5}' "$work/$log")
   summary=$(grep 'Fix hardsphere (' "$work/$log")
   dev=$(grep 'whole on the device' "$work/$log" || true)
-  local steps coll search resolve transfer resident
+  local steps coll search resolve transfer resident events
   steps=$(sed 's/.*backend): \([0-9]*\) steps.*/\1/' <<< "$summary")
+  events=$(sed 's/.* collisions and \([0-9.e+]*\) events.*/\1/' <<< "$summary")
   coll=$(sed 's/.* steps, \([0-9.e+]*\) collisions.*/\1/' <<< "$summary")
   search=$(sed 's/.*search \([0-9.e+-]*\) s.*/\1/' <<< "$summary")
   resolve=$(sed 's/.*resolve \([0-9.e+-]*\) s.*/\1/' <<< "$summary")
@@ -65,11 +73,17 @@ one() {
     transfer=$(sed 's/.*device (\([0-9.e+-]*\) s.*/\1/' <<< "$dev")
     resident=$(sed 's/^Fix hardsphere: \([0-9]*\) of.*/\1/' <<< "$dev")
   fi
-  echo "$modify $search $resolve $transfer $coll $resident $steps"
+  echo "$modify $search $resolve $transfer $coll $resident $steps $events"
 }
 
-echo "| config | N | collisions/step | fix ms/step CPU | fix ms/step GPU | CPU/GPU | GPU search ms/step | GPU resolve ms/step | GPU copying ms/step | GPU collisions/s | steps on the device |"
-echo "|---|---|---|---|---|---|---|---|---|---|---|"
+head="| config | N | collisions/step | fix ms/step CPU | fix ms/step GPU | CPU/GPU | GPU search ms/step | GPU resolve ms/step | GPU copying ms/step | GPU collisions/s | steps on the device |"
+rule="|---|---|---|---|---|---|---|---|---|---|---|"
+if [ "$serial" = 1 ]; then
+  head="$head GPU serial fix ms/step | serial/parallel on the GPU | GPU serial us/event |"
+  rule="$rule---|---|---|"
+fi
+echo "$head"
+echo "$rule"
 for c in "${cases[@]}"; do
   IFS=: read -r config size steps <<< "$c"
   if [ "$config" = fluid ]; then
@@ -81,16 +95,22 @@ for c in "${cases[@]}"; do
   fi
   steps=${steps:-$([ "$n" -ge 500000 ] && echo 20 || echo 50)}
   args+=(-var steps "$steps")
-  : > "$work/cpu" && : > "$work/gpu"
+  : > "$work/cpu" && : > "$work/gpu" && : > "$work/gpus"
   for ((r = 0; r < reps; ++r)); do
     one "in.$config" log.cpu "${args[@]}" >> "$work/cpu"
     one "in.$config.gpu" log.gpu "${args[@]}" >> "$work/gpu"
+    [ "$serial" = 1 ] && one "in.$config.gpus" log.gpus "${args[@]}" >> "$work/gpus"
   done
   col() { awk -v k="$2" '{print $k}' "$work/$1" | median; }
   st=$(col gpu 7)
   awk -v cfg="$config" -v n="$n" -v coll="$(col gpu 5)" -v mc="$(col cpu 1)" -v mg="$(col gpu 1)" \
     -v sg="$(col gpu 2)" -v rg="$(col gpu 3)" -v tg="$(col gpu 4)" -v dev="$(col gpu 6)" -v st="$st" \
-    'BEGIN { printf "| %s | %d | %.0f | %.2f | %.2f | %.1f | %.2f | %.2f | %.2f | %.3g | %d of %d |\n",
+    'BEGIN { printf "| %s | %d | %.0f | %.2f | %.2f | %.1f | %.2f | %.2f | %.2f | %.3g | %d of %d |",
              cfg, n, coll, 1e3 * mc / st, 1e3 * mg / st, mc / mg, 1e3 * sg / st, 1e3 * rg / st,
              1e3 * tg / st, coll * st / mg, dev, st }'
+  if [ "$serial" = 1 ]; then
+    awk -v ms="$(col gpus 1)" -v mg="$(col gpu 1)" -v ev="$(col gpus 8)" -v st="$st" \
+      'BEGIN { printf " %.2f | %.1f | %.2f |", 1e3 * ms / st, ms / mg, 1e6 * ms / (ev * st) }'
+  fi
+  echo
 done

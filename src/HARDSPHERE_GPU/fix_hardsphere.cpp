@@ -108,6 +108,7 @@ FixHardSphere::~FixHardSphere()
   if (copymode) return;
   atom->delete_callback(id, Atom::GROW);
   atom->delete_callback(id, Atom::RESTART);
+  resident.reset();    // lets go of the atom arrays it keeps page-locked
   memory->destroy(tlast);
   delete exchange;
   delete[] extlist;
@@ -349,10 +350,12 @@ void FixHardSphere::setup_backend()
   if (device >= 0) {
     try {
       backend = HSGPU::Collide::make_cuda_backend(device);
-      // One rank: whole steps on the device (on several, groups spanning ranks are gathered
-      // between the windows, which the host driver does).
-      if (comm->nprocs == 1 && !serial_order)
+      // One rank: whole steps on the device, in either order (on several, groups spanning
+      // ranks are gathered between the windows, which the host driver does).
+      if (comm->nprocs == 1) {
         resident = HSGPU::Collide::make_cuda_resident_step(device);
+        resident->set_serial(serial_order);
+      }
     } catch (std::exception &e) {
       error->one(FLERR, "Fix hardsphere: cannot use CUDA device {}: {}", device, e.what());
     }
@@ -363,7 +366,7 @@ void FixHardSphere::setup_backend()
   if (device >= 0 && comm->me == 0)
     utils::logmesg(lmp, "Fix hardsphere: CUDA collision backend, rank 0 on device {} ({}){}\n",
                    device, HSGPU::GPU::device_description(device),
-                   serial_order ? "; order serial runs on the host" : "");
+                   (serial_order && !resident) ? "; order serial runs on the host" : "");
 }
 
 double FixHardSphere::compute_vector(int n)
@@ -468,6 +471,8 @@ void FixHardSphere::restart(char *buf)
 
 void FixHardSphere::grow_arrays(int nmax)
 {
+  // LAMMPS has grown (moved) its per-atom arrays: the device step lets go of the old ones.
+  if (resident) resident->forget_host_arrays();
   memory->grow(tlast, nmax, "hardsphere:tlast");
 }
 

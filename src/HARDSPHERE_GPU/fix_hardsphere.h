@@ -175,7 +175,7 @@ class FixHardSphere : public Fix {
   void sum_tallies(const HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   void step_serial(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   void step_windows(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
-  void apply_results(double dt);
+  void apply_results(double dt, bool in_bodies);
 
   friend class LammpsExchange;
 };

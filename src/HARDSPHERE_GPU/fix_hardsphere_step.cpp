@@ -703,8 +703,9 @@ void FixHardSphere::sum_tallies(const Tally &mine, Tally &all)
 }
 
 /* Positions and half-step velocities of the atoms that had events, and everyone's time of
-   the last collision, relative to the end of this step. */
-void FixHardSphere::apply_results(double dt)
+   the last collision, relative to the end of this step.  in_bodies: the results are in
+   `bodies` (the windows, or a step on the device) rather than in the serial order's lists. */
+void FixHardSphere::apply_results(double dt, bool in_bodies)
 {
   double **x = atom->x, **v = atom->v;
   double xe[3], ve[3];
@@ -718,7 +719,7 @@ void FixHardSphere::apply_results(double dt)
     }
     tlast[i] = std::max(b.tlast - dt, NEVER_COLLIDED);
   };
-  if (!serial_order) {
+  if (in_bodies) {
     for (Body &b : bodies) put(b, b.owner);
     return;
   }
@@ -729,6 +730,8 @@ void FixHardSphere::apply_results(double dt)
 
 void FixHardSphere::setup(int)
 {
+  // Commands between runs may have moved the atom arrays the device step keeps page-locked.
+  if (resident) resident->forget_host_arrays();
   for (int k = 0; k < 6; ++k) virial[k] = 0.0;
   n_step = 0.0;
   run_sum = RunSummary();
@@ -968,7 +971,8 @@ void FixHardSphere::post_integrate()
     }
   }
 
-  if (on_device != 2) apply_results(dt);    // 2: the device wrote the atoms itself
+  // 2: the device wrote the atoms itself; 1: its results are in bodies.
+  if (on_device != 2) apply_results(dt, on_device == 1 || !serial_order);
 
   n_step = (double) all.pair;
   n_total += (double) all.pair;
@@ -1001,10 +1005,11 @@ void FixHardSphere::post_run()
                  "step; largest group {:.0f} atoms, {:.3g} windows and {:.4g} groups per step, "
                  "{:.0f} repairs, {:.0f} steps redone; {:.4g} atoms per step in groups spanning "
                  "ranks, {:.3g} gathers per step; search {:.4g} s, resolve {:.4g} s\n",
-                 serial_order ? "serial" : "parallel", serial_order ? "cpu" : backend->name(),
-                 r.steps, r.pairs / n, r.events / n, r.largest, r.windows / n, r.groups / n,
-                 n_repair + r.repairs, n_redo + r.redos, r.boundary / n, r.gathers / n,
-                 t_search + r.t_search, t_resolve + r.t_resolve);
+                 serial_order ? "serial" : "parallel",
+                 (serial_order && !resident) ? "cpu" : backend->name(), r.steps, r.pairs / n,
+                 r.events / n, r.largest, r.windows / n, r.groups / n, n_repair + r.repairs,
+                 n_redo + r.redos, r.boundary / n, r.gathers / n, t_search + r.t_search,
+                 t_resolve + r.t_resolve);
   if (resident) {
     using HSGPU::Collide::ResidentOutcome;
     auto back = [&](ResidentOutcome o) { return r.declined[(int) o]; };

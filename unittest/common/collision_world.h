@@ -142,7 +142,8 @@ inline StepResult step(World &w, double dt, const Order &order, CollisionBackend
   if (!backend) backend = cpu.get();
   SingleRank single;
   while (true) {
-    if (resident && order.kind == Order::Windows) {
+    if (resident && (order.kind == Order::Windows || serial)) {
+      resident->set_serial(serial);
       bodies = start;
       out.tally = Tally();
       const std::vector<double> bound(n, D);
@@ -364,6 +365,44 @@ inline void check_windows_equal_serial(CollisionBackend *backend, ResidentStep *
         EXPECT_GT(redos, 0) << "the repair path was not taken";
       }
     }
+  }
+}
+
+/// A resident step in order serial (the seed paper's loop on its backend) against the host's
+/// serial loop: every window case, bit for bit, with the host's serial statistics (one
+/// window, one group of all bodies).
+inline void check_resident_serial(ResidentStep *resident)
+{
+  const char *only = std::getenv("HSGPU_WINDOW_CASE");
+  for (const WindowCase &wc : window_cases()) {
+    if (only && !std::strstr(wc.name, only)) continue;
+    World ws = wc.world, wr = wc.world;
+    long pairs = 0, on_device = 0;
+    for (int it = 0; it < wc.steps; ++it) {
+      const StepResult rs = step(ws, wc.dt, SERIAL),
+                       rr = step(wr, wc.dt, SERIAL, nullptr, resident);
+      on_device += rr.resident;
+      if (rr.resident) {
+        ASSERT_EQ(rr.stats.windows, 1) << wc.name << ", step " << it;
+        ASSERT_EQ(rr.stats.groups, 1) << wc.name << ", step " << it;
+        ASSERT_EQ(rr.stats.largest_group, (long) wc.world.s.size()) << wc.name << ", step " << it;
+        ASSERT_EQ(rs.tally.ke_lost, rr.tally.ke_lost) << wc.name << ", step " << it;
+        for (int c = 0; c < 6; ++c)
+          ASSERT_EQ(rs.tally.virial[c], rr.tally.virial[c]) << wc.name << ", step " << it;
+      }
+      ASSERT_EQ(rs.tally.events, rr.tally.events) << wc.name << ", step " << it;
+      ASSERT_EQ(rs.tally.pair, rr.tally.pair) << wc.name << ", step " << it;
+      ASSERT_EQ(rs.tally.wall, rr.tally.wall) << wc.name << ", step " << it;
+      int diff = -1;
+      ASSERT_TRUE(same_state(ws, wr, diff)) << wc.name << ", step " << it << " body " << diff;
+      pairs += rr.tally.pair;
+    }
+    resident->set_serial(false);
+    std::printf("[ SERIAL   ] resident step, %s: %ld pair collisions, %ld of %d steps on the "
+                "device\n",
+                wc.name, pairs, on_device, wc.steps);
+    EXPECT_GT(on_device, wc.steps / 2) << wc.name << ": most steps on the device";
+    EXPECT_GT(pairs, 100) << wc.name;
   }
 }
 

@@ -18,6 +18,16 @@ TEST(ResidentStepCuda, EqualsSerialBitwise)
   check_windows_equal_serial(nullptr, rs.get());
 }
 
+// Order serial on the device (the seed paper's loop: one device-wide earliest event per
+// iteration) against the host's serial loop, bit for bit, tallies summed in the same order.
+TEST(ResidentStepCuda, SerialOrderEqualsHostSerialBitwise)
+{
+  if (HSGPU::GPU::device_count() == 0) GTEST_SKIP() << "no CUDA device";
+  std::unique_ptr<ResidentStep> rs = make_cuda_resident_step(0);
+  ASSERT_TRUE(rs);
+  check_resident_serial(rs.get());
+}
+
 // Declines: an overlap at the start, a box too small for three cells, a cap on the events.
 TEST(ResidentStepCuda, DeclinesWhatItCannotFinish)
 {

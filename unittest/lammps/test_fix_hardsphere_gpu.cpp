@@ -88,6 +88,23 @@ TEST(FixHardSphereGpu, Lattice3dEqualsCpu)
                         20000);
 }
 
+// The same with order serial: the seed paper's loop on the device (one device-wide earliest
+// event per iteration) against the host's serial loop.
+TEST(FixHardSphereGpu, Lattice3dSerialOrderEqualsCpu)
+{
+  std::vector<std::string> s = SPHERES;
+  s.insert(s.end(),
+           {"region box block 0 32 0 32 0 36 units box", "create_box 1 box",
+            "lattice sc 0.125 origin 0.5 0.5 0.5", "region fill block 0 32 0 32 0 32 units box",
+            "create_atoms 1 region fill", "set type 1 diameter 1.0", "set type 1 mass 1.0",
+            "velocity all create 1.0 4928459 dist uniform loop geom",
+            "comm_modify cutoff 3.0 vel yes", "neigh_modify every 1 delay 0 check yes",
+            "fix 1 all nve/sphere", "fix g all gravity 0.1 vector 0 0 -1", "timestep 0.1"});
+  expect_gpu_equals_cpu("lattice3d, order serial", s,
+                        "fix hs all hardsphere wall zlo 1.0 wall zhi 1.0 reach 0.75 order serial",
+                        "run 100", 10000);
+}
+
 // A fluid at packing fraction 0.5 (periodic, elastic, no gravity).
 TEST(FixHardSphereGpu, DenseFluidEqualsCpu)
 {
@@ -145,12 +162,11 @@ TEST(FixHardSphereGpu, LennardJonesForcesEqualsCpu)
 {
   std::vector<std::string> s = SPHERES;
   s[3] = "boundary p p p";
-  s.insert(s.end(),
-           {"lattice sc 0.3 origin 0.5 0.5 0.5", "region box block 0 10 0 10 0 10",
-            "create_box 1 box", "create_atoms 1 box", "set type 1 diameter 1.0",
-            "set type 1 mass 1.0", "velocity all create 1.5 4928459 loop geom",
-            "pair_style lj/cut 2.5", "pair_coeff 1 1 0.5 1.0", "comm_modify vel yes",
-            "neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere", "timestep 0.005",
-            "group spheres type 1"});
+  s.insert(s.end(), {"lattice sc 0.3 origin 0.5 0.5 0.5", "region box block 0 10 0 10 0 10",
+                     "create_box 1 box", "create_atoms 1 box", "set type 1 diameter 1.0",
+                     "set type 1 mass 1.0", "velocity all create 1.5 4928459 loop geom",
+                     "pair_style lj/cut 2.5", "pair_coeff 1 1 0.5 1.0", "comm_modify vel yes",
+                     "neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere",
+                     "timestep 0.005", "group spheres type 1"});
   expect_gpu_equals_cpu("lj/cut", s, "fix hs spheres hardsphere", "run 400", 2000);
 }

@@ -66,6 +66,8 @@ namespace Collide {
   /// the atoms that had events cross the link.
   struct ResidentAtoms {
     int n;
+    // The arrays are read and written where they lie; the step may keep them page-locked until
+    // forget_host_arrays().
     double *x;          // 3 per atom: the drift's end point x0 + v dt (in; out: step end)
     double *v;          // 3 per atom: half-step velocities (in; out)
     double *tlast;      // time of the last collision relative to the step start (in; out)
@@ -82,6 +84,14 @@ namespace Collide {
   class ResidentStep {
    public:
     virtual ~ResidentStep() = default;
+    /// Order serial: the step's events one globally earliest at a time (the seed paper's loop,
+    /// core/event_order.h) instead of windows and groups; the same result, and the report
+    /// counts one window of one group of all bodies, as the host's serial order does.
+    void set_serial(bool on) { serial = on; }
+    /// The caller's arrays given to run_atoms() may move or be freed (LAMMPS grows its
+    /// per-atom arrays, a run ends): the step lets go of any hold it keeps on them (the CUDA
+    /// step page-locks them in place between steps).
+    virtual void forget_host_arrays() {}
     /// The step of the atoms in `a` (start points x - v dt), as run() over the bodies built
     /// from them, with the step bounds of ResidentAtoms.  On `done` x, v and tlast of the
     /// atoms that had events are those at the step end (tlast still relative to the step
@@ -96,6 +106,9 @@ namespace Collide {
     virtual void run(Body *bodies, const double *bound, int n, const ResidentBox &box,
                      const Params &p, const WindowSettings &s, Tally &tally,
                      ResidentReport &report) = 0;
+
+   protected:
+    bool serial = false;
   };
 
   inline const char *resident_outcome_name(ResidentOutcome o)

@@ -2,7 +2,7 @@
 
    Per call: the edge adjacency (CSR, edges in increasing index per body, as the CPU builds
    it) is made on the host; bodies, edges, adjacency, groups and the restitution table go to
-   the device; one thread per group runs resolve_group_exact (collision_group_loop.h) with the
+   the device; one warp per group runs resolve_group_warp (group_loop_warp.cuh) with the
    best-event array in global memory; per-group tallies and the bodies come back, and the
    tallies are handed to the caller in group order (added to its tally, or stored one per
    group in WindowWork::group_tally), as the CPU backend does.
@@ -12,7 +12,7 @@
    checks them one by one). */
 #include "collision_backend_cuda.h"
 
-#include "collision_group_loop.h"
+#include "group_loop_warp.cuh"
 #include "cuda_check.cuh"
 #include "device_info.cuh"
 
@@ -29,29 +29,30 @@ namespace Collide {
 
     constexpr int GROUP_BLOCK = 128;
 
-    // Launch contract: 1-D grid of 1-D blocks, any shape.  Thread g < ngroups resolves group
-    // g (members gmembers[gstart[g] .. gstart[g + 1])) up to t_end when g <= last_group, with
-    // at most `budget` events (`capped_budget` for g == capped_group), and writes its events'
-    // tally, summed in event order from zero, to tallies[g]; groups after last_group are left
-    // as they are and their tallies unwritten.  Everything in device memory: graph.bodies
-    // (changed in place), graph.edges, graph.adj_start, graph.adj, graph.best (one Event per
-    // body, scratch), gstart[ngroups + 1], gmembers, tallies[ngroups], p.epair
-    // ((p.ntypes + 1)^2 values).  The groups must be closed under the edges (see
-    // collision_group_loop.h): threads then share no data and need no synchronization.
+    // Launch contract: 1-D grid of blocks of whole warps, 32 ngroups threads or more.  Warp
+    // g < ngroups resolves group g (members gmembers[gstart[g] .. gstart[g + 1])) up to t_end
+    // when g <= last_group, with at most `budget` events (`capped_budget` for
+    // g == capped_group), and writes its events' tally, summed in event order from zero, to
+    // tallies[g]; groups after last_group are left as they are and their tallies unwritten.
+    // Everything in device memory: graph.bodies (changed in place), graph.edges,
+    // graph.adj_start, graph.adj, graph.best (one Event per body, scratch), gstart[ngroups +
+    // 1], gmembers, tallies[ngroups], p.epair ((p.ntypes + 1)^2 values).  The groups must be
+    // closed under the edges (see collision_group_loop.h): warps then share no data, and the
+    // lanes of one warp order their accesses with __syncwarp() (group_loop_warp.cuh).
     __global__ void resolve_groups_kernel(GroupGraph graph, const int *__restrict__ gstart,
                                           const int *__restrict__ gmembers, int ngroups,
                                           int last_group, double t_end, Params p, long budget,
                                           int capped_group, long capped_budget,
                                           Tally *__restrict__ tallies)
     {
-      const int g = blockIdx.x * blockDim.x + threadIdx.x;
-      if (g >= ngroups || g > last_group) return;
+      const int g = (int) (((long) blockIdx.x * blockDim.x + threadIdx.x) >> 5);
+      if (g >= ngroups || g > last_group) return;    // whole warps leave together
       const int lo = gstart[g], hi = gstart[g + 1];
       Tally t;
       if (hi > lo)
-        resolve_group_exact(graph, p, gmembers + lo, hi - lo, t_end,
-                            g == capped_group ? capped_budget : budget, t);
-      tallies[g] = t;
+        resolve_group_warp(graph, p, gmembers + lo, hi - lo, t_end,
+                           g == capped_group ? capped_budget : budget, t);
+      if ((threadIdx.x & 31) == 0) tallies[g] = t;
     }
 
     class CudaBackend : public CollisionBackend {
@@ -107,7 +108,7 @@ namespace Collide {
       {
         const GroupGraph graph{d_bodies.as<Body>(), d_edges.as<Edge>(), d_adj_start.as<int>(),
                                d_adj.as<int>(), d_best.as<Event>()};
-        const int nblocks = (w.ngroups + GROUP_BLOCK - 1) / GROUP_BLOCK;
+        const int nblocks = (int) ((32L * w.ngroups + GROUP_BLOCK - 1) / GROUP_BLOCK);
         // The check after the launch must see this launch's error only, not one that an
         // earlier failed call (reported through its return value) left behind.
         (void) cudaGetLastError();

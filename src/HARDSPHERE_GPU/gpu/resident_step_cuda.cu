@@ -3,8 +3,11 @@
 
    One step, with the bodies on the device from the upload to the download:
 
-     upload bodies and step bounds
-     scan:     largest r + bound, fastest drift, wall overlaps            (one thread per body)
+     upload    run(): bodies and step bounds; run_atoms(): the caller's eight per-atom arrays,
+               page-locked where they lie (cudaHostRegister, kept between steps), and the
+               bodies built from them on the device
+     scan:     largest r + bound, fastest drift, wall overlaps     (one thread per body, block
+               reductions, one atomic per block)
      search:   cell of every start point, CUB radix sort by cell, cell ranges, candidate pairs
                counted, CUB scan, written (one thread per body, 27 cells around it; each pair
                once, from its lower body index), pair overlaps; CSR adjacency of the candidates
@@ -12,15 +15,19 @@
                edges joined (a flag per candidate), connected components by a lock-free
                union-find whose roots are the components' smallest indices, group sizes and the
                largest (one 8-byte download); for the window taken: groups numbered in root
-               order (CUB scans), members placed, bodies snapshot, one thread per group runs
-               collision_group_loop.h's exact loop over the joined edges, per-group tallies
+               order (CUB scans), members placed, bodies snapshot, one warp per group runs
+               group_loop_warp.cuh's exact loop over the joined edges, per-group tallies
                reduced (CUB, a fixed order), excursions, pairs not joined that could have
                touched joined (if any: bodies back to the snapshot, components again, resolved
                again)
+     serial:   (order serial, instead of the windows) serial_loop.cuh's loop, one globally
+               earliest event per iteration, iterations launched ahead in a CUDA graph
      end:      excursions to dt, the step's check (bodies beyond their step bound: any pair
                with a neighbour that was not a candidate and could have touched declines the
-               step); only the bodies that had events go back, compacted (run: whole Bodies;
-               run_atoms: end-of-step x, v and tlast, scattered into the caller's arrays)
+               step); only the bodies that had events go back, compacted in body order (run:
+               whole Bodies; run_atoms: end-of-step x, v and tlast, written into the caller's
+               arrays, or, where more than 1/32 of the atoms changed and the arrays are
+               page-locked, written into the device copies and x, v and tlast copied back whole)
 
    Every body and event computation is core/'s, compiled with --fmad=false (collide.cmake), so
    the events, and every bit of the bodies, are the step driver's.  Components are sets, the
@@ -28,16 +35,21 @@
    events have equal keys), and groups are numbered by their smallest member as the driver
    numbers them; only the tallies' floating-point sums are added in another order.
 
-   Debugging aid: HSGPU_RESIDENT_VERIFY=1 copies every window's groups to the host and reports
-   bodies placed twice or not at all and joined edges between groups on stderr. */
+   Debugging aids: HSGPU_RESIDENT_VERIFY=1 copies every window's groups to the host and reports
+   bodies placed twice or not at all and joined edges between groups on stderr;
+   HSGPU_RESIDENT_PROFILE=1 times the phases above (waiting for the stream after each) and
+   prints the means per step on stderr at the end; HSGPU_RESIDENT_SCATTER=1 always sends the
+   changed atoms back compacted (tests run both ways). */
 #include "resident_step_cuda.h"
 
-#include "collision_group_loop.h"
+#include "group_loop_warp.cuh"
+#include "serial_loop.cuh"
 #include "cuda_check.cuh"
 #include "engine/window_chooser.h"
 
 #include <cub/device/device_radix_sort.cuh>
 #include <cub/device/device_reduce.cuh>
+#include <cub/block/block_reduce.cuh>
 #include <cub/device/device_scan.cuh>
 
 #include <algorithm>
@@ -121,25 +133,44 @@ namespace Collide {
       atomicMax(a, (unsigned long long) __double_as_longlong(v));
     }
 
-    // Launch: one thread per body (n).  Largest r + bound and |v|^2 into s (bits of
-    // non-negative doubles order as integers), s->overlap where a sphere is more than
-    // tol x its radius inside a wall at its start point.  Reads n Bodies and n bounds.
+    /// The largest of three non-negative doubles, by blocks of BLOCK threads.
+    struct Max3 {
+      double v[3];
+    };
+    struct Max3Op {
+      __device__ Max3 operator()(const Max3 &a, const Max3 &b) const
+      {
+        return Max3{{fmax(a.v[0], b.v[0]), fmax(a.v[1], b.v[1]), fmax(a.v[2], b.v[2])}};
+      }
+    };
+
+    // Launch: blocks of BLOCK threads, one thread per body (n).  Largest r + bound, radius and
+    // |v|^2 into s (one atomic per block and value: bits of non-negative doubles order as
+    // integers), s->overlap where a sphere is more than tol x its radius inside a wall at its
+    // start point.  Reads n Bodies and n bounds.
     __global__ void scan_bodies_kernel(const Body *__restrict__ bodies,
                                        const double *__restrict__ bound, int n, Walls walls,
                                        double tol, Scalars *s)
     {
+      using Reduce = cub::BlockReduce<Max3, BLOCK>;
+      __shared__ typename Reduce::TempStorage scratch;
       const int b = blockIdx.x * blockDim.x + threadIdx.x;
-      if (b >= n) return;
-      const Body &bd = bodies[b];
-      atomic_max_bits(&s->maxreach, bd.radius + bound[b]);
-      atomic_max_bits(&s->rmax, bd.radius);
-      atomic_max_bits(&s->vmax2, Contact::dot3(bd.v, bd.v));
-      for (int f = 0; f < NFACES; ++f) {
-        if (!walls.on[f]) continue;
-        const int d = face_dim(f);
-        const double gap = face_sign(f) * (bd.X0[d] - walls.pos[f]) - bd.radius;
-        if (gap < -tol * bd.radius) s->overlap = 1;
+      Max3 m{{0.0, 0.0, 0.0}};
+      if (b < n) {
+        const Body &bd = bodies[b];
+        m = Max3{{bd.radius + bound[b], bd.radius, Contact::dot3(bd.v, bd.v)}};
+        for (int f = 0; f < NFACES; ++f) {
+          if (!walls.on[f]) continue;
+          const int d = face_dim(f);
+          const double gap = face_sign(f) * (bd.X0[d] - walls.pos[f]) - bd.radius;
+          if (gap < -tol * bd.radius) s->overlap = 1;
+        }
       }
+      m = Reduce(scratch).Reduce(m, Max3Op());
+      if (threadIdx.x != 0) return;
+      atomic_max_bits(&s->maxreach, m.v[0]);
+      atomic_max_bits(&s->rmax, m.v[1]);
+      atomic_max_bits(&s->vmax2, m.v[2]);
     }
 
     __device__ int cell_coord(double x, const Grid &g, int d)
@@ -405,17 +436,19 @@ namespace Collide {
       gmembers[goff[r] + atomicAdd(&fill[r], 1)] = b;
     }
 
-    // Launch: one thread per group (ngroups).  Group g's events before t_end, at most budget;
-    // its tally (summed in event order from zero) and whether it had an event into sums[g].
+    // Launch: one warp per group (32 ngroups threads, blocks of whole warps).  Group g's
+    // events before t_end, at most budget (group_loop_warp.cuh); its tally (summed in event
+    // order from zero) and whether it had an event into sums[g].
     __global__ void resolve_kernel(GroupGraph graph, const int *__restrict__ gstart,
                                    const int *__restrict__ gmembers, int ngroups, double t_end,
                                    Params p, long budget, WinSum *sums)
     {
-      const int g = blockIdx.x * blockDim.x + threadIdx.x;
-      if (g >= ngroups) return;
+      const int g = (int) (((long) blockIdx.x * blockDim.x + threadIdx.x) >> 5);
+      if (g >= ngroups) return;    // whole warps leave together
       const int lo = gstart[g], hi = gstart[g + 1];
       Tally t;
-      resolve_group_exact(graph, p, gmembers + lo, hi - lo, t_end, budget, t);
+      resolve_group_warp(graph, p, gmembers + lo, hi - lo, t_end, budget, t);
+      if ((threadIdx.x & 31) != 0) return;
       WinSum w;
       w.pair = t.pair;
       w.wall = t.wall;
@@ -458,21 +491,40 @@ namespace Collide {
       atomicAdd(&s->missed, 1);
     }
 
-    // Launch: one thread per body.  The end of the step: excursion noted at dt (as
-    // end_of_step() does) and kept in exc[b]; s->excursion counts bodies beyond their step
-    // bound, s->maxexc the largest excursion.
+    /// Largest excursion and bodies beyond their bound, by blocks.
+    struct ExcursionSum {
+      double most;
+      int beyond;
+    };
+    struct ExcursionOp {
+      __device__ ExcursionSum operator()(const ExcursionSum &a, const ExcursionSum &b) const
+      {
+        return ExcursionSum{fmax(a.most, b.most), a.beyond + b.beyond};
+      }
+    };
+
+    // Launch: blocks of BLOCK threads, one thread per body.  The end of the step: excursion
+    // noted at dt (as end_of_step() does) and kept in exc[b]; s->excursion counts bodies
+    // beyond their step bound, s->maxexc the largest excursion (one atomic per block each).
     __global__ void end_kernel(Body *bodies, int n, double dt, const double *__restrict__ bound,
                                double *exc, Scalars *s)
     {
+      using Reduce = cub::BlockReduce<ExcursionSum, BLOCK>;
+      __shared__ typename Reduce::TempStorage scratch;
       const int b = blockIdx.x * blockDim.x + threadIdx.x;
-      if (b >= n) return;
-      double x[3];
-      drift_position(bodies[b], dt, x);
-      note_excursion(bodies[b], x);
-      const double e = sqrt(bodies[b].exc2);
-      exc[b] = e;
-      atomic_max_bits(&s->maxexc, e);
-      if (e > bound[b]) atomicAdd(&s->excursion, 1);
+      ExcursionSum mine{0.0, 0};
+      if (b < n) {
+        double x[3];
+        drift_position(bodies[b], dt, x);
+        note_excursion(bodies[b], x);
+        const double e = sqrt(bodies[b].exc2);
+        exc[b] = e;
+        mine = ExcursionSum{e, e > bound[b] ? 1 : 0};
+      }
+      mine = Reduce(scratch).Reduce(mine, ExcursionOp());
+      if (threadIdx.x != 0) return;
+      atomic_max_bits(&s->maxexc, mine.most);
+      if (mine.beyond) atomicAdd(&s->excursion, mine.beyond);
     }
 
     // Launch: one thread per sorted position k (n), body i = order[k].  The step's check (the
@@ -545,10 +597,18 @@ namespace Collide {
       double x[3], v[3], tlast;
     };
 
-    // Launch: one thread per body.  The atoms that had events: end-of-step position, velocity
-    // and time of the last collision into out[] (slots by atomics); s->changed counts them.
+    // Launch: one thread per body (n).  flag[b] = 1 where body b had events, else 0.
+    __global__ void changed_kernel(const Body *__restrict__ bodies, int n, int *flag)
+    {
+      const int b = blockIdx.x * blockDim.x + threadIdx.x;
+      if (b < n) flag[b] = bodies[b].nevents > 0 ? 1 : 0;
+    }
+
+    // Launch: one thread per body.  The atoms that had events, in increasing body order (slot
+    // = the exclusive sum of changed_kernel's flags): end-of-step position, velocity and time
+    // of the last collision into out[slot].
     __global__ void atom_results_kernel(const Body *__restrict__ bodies, int n, double dt,
-                                        AtomResult *out, Scalars *s)
+                                        const int *__restrict__ slot, AtomResult *out)
     {
       const int b = blockIdx.x * blockDim.x + threadIdx.x;
       if (b >= n || bodies[b].nevents == 0) return;
@@ -557,7 +617,22 @@ namespace Collide {
       drift_position(bodies[b], dt, r.x);
       for (int d = 0; d < 3; ++d) r.v[d] = bodies[b].v[d];
       r.tlast = bodies[b].tlast;
-      out[atomicAdd(&s->changed, 1)] = r;
+      out[slot[b]] = r;
+    }
+
+    // Launch: one thread per result (changed).  Result k into the device copies of the
+    // caller's x, v and tlast.
+    __global__ void atom_write_kernel(const AtomResult *__restrict__ res, int changed, double *x,
+                                      double *v, double *tlast)
+    {
+      const int k = blockIdx.x * blockDim.x + threadIdx.x;
+      if (k >= changed) return;
+      const AtomResult &r = res[k];
+      for (int d = 0; d < 3; ++d) {
+        x[3 * r.index + d] = r.x[d];
+        v[3 * r.index + d] = r.v[d];
+      }
+      tlast[r.index] = r.tlast;
     }
 
     using Clock = std::chrono::steady_clock;
@@ -589,11 +664,17 @@ namespace Collide {
               &d_best,      &d_sums,   &d_lexc,  &d_temp})
           b->release();
         if (host_scalars) cudaFreeHost(host_scalars);
-        for (PinnedBuffer *b : {&host_changed, &host_index, &host_results}) b->release();
+        for (PinnedBuffer *b : {&host_changed, &host_index, &host_results, &host_control})
+          b->release();
+        d_control.release();
+        d_part.release();
+        if (serial_exec) cudaGraphExecDestroy(serial_exec);
         for (DeviceBuffer *b :
              {&d_ax, &d_av, &d_af, &d_arad, &d_amass, &d_atlast, &d_atype, &d_aid})
           b->release();
+        for (Locked &l : locked) unlock(l);
         if (stream) cudaStreamDestroy(stream);
+        if (prof.on) prof.print();
       }
 
       CudaResidentStep(const CudaResidentStep &) = delete;
@@ -610,8 +691,54 @@ namespace Collide {
       Scalars *host_scalars = nullptr;
       // Pinned: what comes back, run()'s bodies that had events with their indices, or
       // run_atoms()'s results.
-      PinnedBuffer host_changed, host_index, host_results;
+      PinnedBuffer host_changed, host_index, host_results, host_control;
+      DeviceBuffer d_control, d_part;           // order serial: the loop's state, block minima
+      cudaGraphExec_t serial_exec = nullptr;    // order serial: the iterations, and what
+      std::vector<char> serial_key;             // arguments they were captured with
       DeviceBuffer d_ax, d_av, d_af, d_arad, d_amass, d_atlast, d_atype, d_aid;
+      /// A caller's array page-locked in place (cudaHostRegister).
+      struct Locked {
+        void *p = nullptr;
+        size_t bytes = 0;
+      };
+      static constexpr int NLOCKED = 8;
+      Locked locked[NLOCKED];    // run_atoms()'s arrays
+      bool locking = true;       // false once the driver refused: pageable copies from then on
+
+      /* Keeps [p, p + bytes) page-locked: a range that moved or changed length is released and
+         the new one locked.  Where the driver refuses (memory limits, an overlap with another
+         locked range), the copies stay pageable: slower, the same bytes. */
+      void lock(Locked &l, const void *p, size_t bytes)
+      {
+        if (l.p == p && l.bytes == bytes) return;
+        unlock(l);
+        if (!locking || !p || bytes == 0) return;
+        const cudaError_t e =
+            cudaHostRegister(const_cast<void *>(p), bytes, cudaHostRegisterDefault);
+        if (e != cudaSuccess) {
+          (void) cudaGetLastError();
+          locking = false;
+          return;
+        }
+        l.p = const_cast<void *>(p);
+        l.bytes = bytes;
+      }
+
+      void unlock(Locked &l)
+      {
+        if (l.p) cudaHostUnregister(l.p);
+        (void) cudaGetLastError();
+        l = Locked();
+      }
+
+     public:
+      void forget_host_arrays() override
+      {
+        cudaSetDevice(device);
+        for (Locked &l : locked) unlock(l);
+      }
+
+     private:
       WindowChooser chooser;
       int n = 0, ne = 0;
       double tol = 0.0;    // overlap tolerance of the step
@@ -622,6 +749,43 @@ namespace Collide {
           d_sums, d_lexc, d_temp;
 
       Scalars *scalars() const { return d_scalars.as<Scalars>(); }
+
+      /* Debugging and tuning aid (HSGPU_RESIDENT_PROFILE=1): the stream is waited for at the
+         end of every phase of a step and the seconds are summed per phase; the sums per step
+         go to stderr when the object is destroyed.  Off, mark() costs nothing. */
+      struct Profile {
+        enum { upload, scan, search, choose, resolve, check, end, download, count };
+        bool on = std::getenv("HSGPU_RESIDENT_PROFILE") != nullptr;
+        double sec[count] = {};
+        long steps = 0, tries = 0, passes = 0, whole = 0;
+        int locked = 0;
+        Clock::time_point last;
+        void print() const
+        {
+          static const char *name[count] = {"upload",  "scan",  "search",   "choose windows",
+                                            "resolve", "check", "step end", "download"};
+          if (steps == 0) return;
+          double total = 0.0;
+          for (double x : sec) total += x;
+          std::fprintf(stderr, "resident profile: %ld steps, %.4g ms per step", steps,
+                       1e3 * total / steps);
+          for (int k = 0; k < count; ++k)
+            std::fprintf(stderr, "; %s %.4g", name[k], 1e3 * sec[k] / steps);
+          std::fprintf(stderr,
+                       " ms; %.3g windows tried and %.3g resolve passes per step; %d arrays "
+                       "page-locked, %ld steps copied x, v and tlast back whole\n",
+                       (double) tries / steps, (double) passes / steps, locked, whole);
+        }
+      } prof;
+
+      void mark(int phase)
+      {
+        if (!prof.on) return;
+        cuda_check(cudaStreamSynchronize(stream), "profile");
+        const Clock::time_point now = Clock::now();
+        prof.sec[phase] += std::chrono::duration<double>(now - prof.last).count();
+        prof.last = now;
+      }
 
       /// Scalars to the host (waits for the stream).
       const Scalars &download_scalars()
@@ -664,6 +828,7 @@ namespace Collide {
       void prepare(const Params &p);
       bool resolve_step(const ResidentBox &box, const Params &p, const WindowSettings &s,
                         Tally &total, ResidentReport &report, Clock::time_point t_start);
+      bool resolve_serial(const Params &dp, Tally &total, WindowStats &stats);
       ResidentOutcome search(const ResidentBox &box, double maxreach, long &candidates);
       void verify_groups(int ngroups, const char *where);
       int components();
@@ -882,6 +1047,7 @@ namespace Collide {
           d_bodies.as<Body>(), d_bound.as<double>(), n, p.walls, tol, scalars());
       launched("scan_bodies_kernel");
       const Scalars sc = download_scalars();
+      mark(Profile::scan);
       double maxreach, vmax2;
       std::memcpy(&maxreach, &sc.maxreach, sizeof(double));
       std::memcpy(&vmax2, &sc.vmax2, sizeof(double));
@@ -891,6 +1057,7 @@ namespace Collide {
       }
       report.outcome = search(box, maxreach, report.candidates);
       if (report.outcome != ResidentOutcome::done) return false;
+      mark(Profile::search);
       report.t_search = seconds_since(t_start);
       windows_start = Clock::now();
       const auto t_windows = windows_start;
@@ -910,7 +1077,14 @@ namespace Collide {
         report.outcome = o;
         report.t_resolve = seconds_since(t_windows);
       };
-      while (t0 < dt) {
+      if (serial) {
+        if (!resolve_serial(dp, total, stats)) {
+          decline(ResidentOutcome::capped);
+          return false;
+        }
+        mark(Profile::resolve);
+      }
+      while (!serial && t0 < dt) {
         long largest;
         int ngroups = 0;
         auto try_window = [&](double t1) -> long {
@@ -926,9 +1100,11 @@ namespace Collide {
           }
           const long l = components();
           ngroups = host_scalars->ngroups;
+          ++prof.tries;
           return l;
         };
         const double t1 = chooser.next(t0, k, dt, s, target, try_window, largest);
+        mark(Profile::choose);
         cuda_check(cudaMemcpyAsync(d_snap.ptr, d_bodies.ptr, n * sizeof(Body),
                                    cudaMemcpyDeviceToDevice, stream),
                    "cudaMemcpy(snapshot)");
@@ -938,10 +1114,12 @@ namespace Collide {
         while (true) {
           groups(ngroups);
           if (verify) verify_groups(ngroups, "window");
-          resolve_kernel<<<nblocks(ngroups, GROUP_BLOCK), GROUP_BLOCK, 0, stream>>>(
+          resolve_kernel<<<nblocks(32L * ngroups, GROUP_BLOCK), GROUP_BLOCK, 0, stream>>>(
               graph, d_gstart.as<int>(), d_gmembers.as<int>(), ngroups, t1, dp, budget,
               d_sums.as<WinSum>());
           launched("resolve_kernel");
+          ++prof.passes;
+          mark(Profile::resolve);
           size_t bytes = 0;
           const WinSum zero_sum{};
           cuda_check(cub::DeviceReduce::Reduce(nullptr, bytes, d_sums.as<WinSum>(), &scalars()->win,
@@ -963,6 +1141,7 @@ namespace Collide {
             launched("missed_kernel");
           }
           const Scalars &r = download_scalars();
+          mark(Profile::check);
           win = r.win;
           if (win.capped || win.events > budget) {
             decline(ResidentOutcome::capped);
@@ -976,6 +1155,7 @@ namespace Collide {
                      "cudaMemcpy(snapshot back)");
           largest = std::max(largest, (long) components());
           ngroups = host_scalars->ngroups;
+          mark(Profile::check);
         }
         Tally wt;
         wt.pair = win.pair;
@@ -990,7 +1170,8 @@ namespace Collide {
         ++k;
         t0 = t1;
       }
-      stats.windows = k;
+      if (!serial) stats.windows = k;
+      mark(Profile::end);
 
       zero(&scalars()->excursion);
       zero(&scalars()->maxexc);
@@ -1018,6 +1199,73 @@ namespace Collide {
           return false;
         }
       }
+      mark(Profile::end);
+      ++prof.steps;
+      return true;
+    }
+
+    /* Order serial (serial_loop.cuh): the step's events one globally earliest at a time, the
+       iterations launched ahead in a CUDA graph of SERIAL_ITERATIONS each, the stream waited
+       for between graphs.  Returns false where maxevents stops the step. */
+    bool CudaResidentStep::resolve_serial(const Params &dp, Tally &total, WindowStats &stats)
+    {
+      using namespace SerialLoop;
+      constexpr int SERIAL_ITERATIONS = 64;
+      const double dt = dp.dt;
+      // One window, the step: start points and window excursions as the host's serial order.
+      window_start_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_bodies.as<Body>(), n, 0.0, dt, 1.0,
+                                                            0.0, d_wbound.as<double>());
+      launched("window_start_kernel");
+      const GroupGraph graph{d_bodies.as<Body>(), d_edges.as<Edge>(), d_adj_start.as<int>(),
+                             d_adj.as<int>(),     d_best.as<Event>(), nullptr};
+      init_kernel<<<nblocks(n), BLOCK, 0, stream>>>(graph, dp, n);
+      launched("serial init_kernel");
+      const int nparts = nblocks(n, SerialLoop::BLOCK);
+      d_part.reserve((size_t) nparts * sizeof(WarpLoop::Candidate), "cudaMalloc(serial minima)");
+      d_control.reserve(sizeof(Control), "cudaMalloc(serial control)");
+      cuda_check(cudaMemsetAsync(d_control.ptr, 0, sizeof(Control), stream), "cudaMemset");
+      Control *ctl = d_control.as<Control>();
+      WarpLoop::Candidate *part = d_part.as<WarpLoop::Candidate>();
+      // The graph is captured again only where its kernels' arguments changed.
+      std::vector<char> key;
+      auto add_key = [&key](const void *a, size_t bytes) {
+        key.insert(key.end(), (const char *) a, (const char *) a + bytes);
+      };
+      add_key(&graph, sizeof(graph));
+      add_key(&dp, sizeof(dp));
+      add_key(&n, sizeof(n));
+      add_key(&ctl, sizeof(ctl));
+      add_key(&part, sizeof(part));
+      if (!serial_exec || key != serial_key) {
+        if (serial_exec) cudaGraphExecDestroy(serial_exec);
+        serial_exec = nullptr;
+        serial_key.clear();
+        cudaGraph_t g = nullptr;
+        cuda_check(cudaStreamBeginCapture(stream, cudaStreamCaptureModeThreadLocal),
+                   "cudaStreamBeginCapture");
+        for (int it = 0; it < SERIAL_ITERATIONS; ++it) {
+          min_kernel<<<nparts, SerialLoop::BLOCK, 0, stream>>>(d_best.as<Event>(), n, ctl, part);
+          event_kernel<<<1, 32, 0, stream>>>(graph, dp, part, nparts, dt, dp.maxevents, ctl);
+        }
+        cuda_check(cudaStreamEndCapture(stream, &g), "cudaStreamEndCapture");
+        const cudaError_t made = cudaGraphInstantiate(&serial_exec, g, 0);
+        cudaGraphDestroy(g);
+        if (made != cudaSuccess) serial_exec = nullptr;
+        cuda_check(made, "cudaGraphInstantiate");
+        serial_key = key;
+      }
+      Control c;
+      do {
+        cuda_check(cudaGraphLaunch(serial_exec, stream), "cudaGraphLaunch");
+        fetch(d_control, host_control, sizeof(Control), "cudaMemcpy(serial control)");
+        cuda_check(cudaStreamSynchronize(stream), "order serial");
+        c = *host_control.as<Control>();
+      } while (!c.done);
+      if (c.tally.capped) return false;
+      total.add(c.tally);
+      stats.windows = 1;
+      stats.groups = 1;
+      stats.largest_group = n;
       return true;
     }
 
@@ -1042,6 +1290,8 @@ namespace Collide {
           "cudaMemcpy(bounds)");
       cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(bodies)");
       report.t_upload = seconds_since(t_start);
+      prof.last = t_start;
+      mark(Profile::upload);
       Tally total;
       if (!resolve_step(box, p, s, total, report, t_start)) return;
       const auto t_windows = windows_start;
@@ -1060,6 +1310,7 @@ namespace Collide {
       for (int k = 0; k < changed; ++k) bodies[index[k]] = back[k];
       report.changed = changed;
       report.t_download = seconds_since(t_down);
+      mark(Profile::download);
       tally.add(total);
       report.t_resolve = seconds_since(t_windows);
     }
@@ -1082,16 +1333,25 @@ namespace Collide {
                    "cudaMemcpy(atoms)");
       };
       const size_t n3 = (size_t) 3 * n * sizeof(double), n1 = (size_t) n * sizeof(double);
-      up(d_ax, a.x, n3);
-      up(d_av, a.v, n3);
-      up(d_af, a.f, n3);
-      up(d_arad, a.radius, n1);
-      up(d_amass, a.rmass, n1);
-      up(d_atlast, a.tlast, n1);
-      up(d_atype, a.type, (size_t) n * sizeof(int));
-      up(d_aid, a.id, (size_t) n * a.id_bytes);
+      // The arrays are page-locked where they lie, so that they move at the pinned rate.
+      const size_t ni = (size_t) n * sizeof(int), nid = (size_t) n * a.id_bytes;
+      const struct {
+        DeviceBuffer &d;
+        const void *h;
+        size_t bytes;
+      } arrays[NLOCKED] = {{d_ax, a.x, n3},         {d_av, a.v, n3},        {d_af, a.f, n3},
+                           {d_atlast, a.tlast, n1}, {d_arad, a.radius, n1}, {d_amass, a.rmass, n1},
+                           {d_atype, a.type, ni},   {d_aid, a.id, nid}};
+      prof.locked = 0;
+      for (int k = 0; k < NLOCKED; ++k) {
+        lock(locked[k], arrays[k].h, arrays[k].bytes);
+        up(arrays[k].d, arrays[k].h, arrays[k].bytes);
+        if (locked[k].p) ++prof.locked;
+      }
       cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(atoms)");
       report.t_upload = seconds_since(t_start);
+      prof.last = t_start;
+      mark(Profile::upload);
       if (a.id_bytes == 8)
         build_kernel<long long><<<nblocks(n), BLOCK, 0, stream>>>(
             d_ax.as<double>(), d_av.as<double>(), d_af.as<double>(), d_arad.as<double>(),
@@ -1107,12 +1367,47 @@ namespace Collide {
       if (!resolve_step(box, p, s, total, report, t_start)) return;
       // Only the atoms that had events come back.
       const auto t_down = Clock::now();
-      zero(&scalars()->changed);
+      // In body order, so that the host writes the atoms' arrays front to back.
       d_sums.reserve((size_t) n * sizeof(AtomResult), "cudaMalloc(atom results)");
-      atom_results_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_bodies.as<Body>(), n, p.dt,
-                                                            d_sums.as<AtomResult>(), scalars());
+      changed_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_bodies.as<Body>(), n, d_count.as<int>());
+      launched("changed_kernel");
+      cuda_check(cudaMemsetAsync(d_count.as<int>() + n, 0, sizeof(int), stream), "cudaMemset");
+      exclusive_sum(d_count.as<int>(), d_offset.as<int>(), n + 1);
+      cuda_check(cudaMemcpyAsync(&scalars()->changed, d_offset.as<int>() + n, sizeof(int),
+                                 cudaMemcpyDeviceToDevice, stream),
+                 "cudaMemcpy(changed)");
+      atom_results_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
+          d_bodies.as<Body>(), n, p.dt, d_offset.as<int>(), d_sums.as<AtomResult>());
       launched("atom_results_kernel");
       const int changed = download_scalars().changed;
+      report.changed = changed;
+      // Many atoms changed and the arrays are page-locked: writing the changed atoms into the
+      // device copies of x, v and tlast and copying those back whole costs less than the
+      // host's scattered writes (which touch most cache lines of the arrays anyway).  The
+      // other atoms get their own bytes back.
+      static const bool scatter = std::getenv("HSGPU_RESIDENT_SCATTER") != nullptr;
+      if (!scatter && changed > n / 32 && locked[0].p && locked[1].p && locked[3].p) {
+        ++prof.whole;
+        atom_write_kernel<<<nblocks(changed), BLOCK, 0, stream>>>(
+            d_sums.as<AtomResult>(), changed, d_ax.as<double>(), d_av.as<double>(),
+            d_atlast.as<double>());
+        launched("atom_write_kernel");
+        cuda_check(cudaMemcpyAsync(a.x, d_ax.ptr, n3, cudaMemcpyDeviceToHost, stream),
+                   "cudaMemcpy(x)");
+        cuda_check(cudaMemcpyAsync(a.v, d_av.ptr, n3, cudaMemcpyDeviceToHost, stream),
+                   "cudaMemcpy(v)");
+        cuda_check(cudaMemcpyAsync(a.tlast, d_atlast.ptr, n1, cudaMemcpyDeviceToHost, stream),
+                   "cudaMemcpy(tlast)");
+        cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(atoms back)");
+        report.t_download = seconds_since(t_down);
+        mark(Profile::download);
+        tally.add(total);
+        report.t_resolve = seconds_since(windows_start);
+        return;
+      }
+      // Room for a quarter of the atoms at once, so that the buffer rarely grows.
+      host_results.reserve(std::max((size_t) changed, (size_t) n / 4) * sizeof(AtomResult),
+                           "cudaMallocHost(atom results)");
       fetch(d_sums, host_results, changed * sizeof(AtomResult), "cudaMemcpy(atom results)");
       cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(atom results)");
       for (int k = 0; k < changed; ++k) {
@@ -1123,8 +1418,8 @@ namespace Collide {
         }
         a.tlast[r.index] = r.tlast;
       }
-      report.changed = changed;
       report.t_download = seconds_since(t_down);
+      mark(Profile::download);
       tally.add(total);
       report.t_resolve = seconds_since(windows_start);
     }
