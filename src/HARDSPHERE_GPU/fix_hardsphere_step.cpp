@@ -923,6 +923,7 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
   }
   t_search += t_gather + report.t_search;
   t_resolve += report.t_resolve;
+  n_redo += (double) report.redone;    // steps the device did again with raised bounds
   run_sum.t_transfer += report.t_upload + report.t_download;
   if (report.outcome != HSGPU::Collide::ResidentOutcome::done) {
     n_declined += 1.0;

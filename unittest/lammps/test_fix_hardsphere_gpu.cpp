@@ -105,6 +105,22 @@ TEST(FixHardSphereGpu, Lattice3dSerialOrderEqualsCpu)
                         "run 100", 10000);
 }
 
+// The fluid scene of the benchmarks (../shared/scenes/in.fluid: packing fraction 0.4,
+// N = 32768, 50 steps).
+TEST(FixHardSphereGpu, FluidSceneEqualsCpu)
+{
+  std::vector<std::string> s = SPHERES;
+  s[3] = "boundary p p p";
+  s.insert(s.end(),
+           {"lattice sc 0.763943726841098", "region box block 0 32 0 32 0 32", "create_box 1 box",
+            "create_atoms 1 box", "set type 1 diameter 1.0", "set type 1 mass 1.0",
+            "velocity all create 1.0 87287 dist gaussian mom no loop geom",
+            "comm_modify cutoff 2.5 vel yes", "neigh_modify every 1 delay 0 check yes",
+            "fix 1 all nve/sphere", "timestep 0.01"});
+  expect_gpu_equals_cpu("fluid 0.4, N = 32768", s, "fix hs all hardsphere reach 0.5", "run 50",
+                        100000);
+}
+
 // A fluid at packing fraction 0.5 (periodic, elastic, no gravity).
 TEST(FixHardSphereGpu, DenseFluidEqualsCpu)
 {

@@ -21,7 +21,9 @@
                 or pushes them);
    - excursion: a pair that was not a candidate could have touched (a body moved further
                 than its step bound, and the two together at least the pair's gap), or a body
-                moved further than the reach (the caller raises bounds, or stops);
+                moved further than the reach (the caller raises bounds, or stops); run_atoms()
+                first does such a step again itself, up to three times, with the bounds of the
+                bodies that moved too far raised (report.redone);
    - capped:    the step needs more than p.maxevents events (the caller's cap decides which);
    - small_box: a periodic length holds fewer than three search cells.
 
@@ -55,6 +57,7 @@ namespace Collide {
     WindowStats stats;
     long candidates = 0;        // candidate pairs of the step
     long changed = 0;           // bodies that had events (the ones copied back)
+    int redone = 0;             // times the step was done again on the device (run_atoms)
     double t_search = 0.0;      // seconds: upload and candidate search
     double t_resolve = 0.0;     // seconds: windows, checks and download
     double t_upload = 0.0;      // seconds of t_search copying the bodies to the device
