@@ -70,10 +70,8 @@ void expect_gpu_equals_cpu(const char *name, const std::vector<std::string> &set
 const std::vector<std::string> SPHERES = {"units lj", "atom_style sphere", "atom_modify map array",
                                           "boundary p p f"};
 
-}    // namespace
-
-// The seed paper's third configuration (lattice3d, N = 4096), elastic, under gravity.
-TEST(FixHardSphereGpu, Lattice3dEqualsCpu)
+// The seed paper's third configuration at N = 4096 (examples/hardsphere/in.lattice3d).
+std::vector<std::string> lattice3d()
 {
   std::vector<std::string> s = SPHERES;
   s.insert(s.end(),
@@ -83,6 +81,15 @@ TEST(FixHardSphereGpu, Lattice3dEqualsCpu)
             "velocity all create 1.0 4928459 dist uniform loop geom",
             "comm_modify cutoff 3.0 vel yes", "neigh_modify every 1 delay 0 check yes",
             "fix 1 all nve/sphere", "fix g all gravity 0.1 vector 0 0 -1", "timestep 0.1"});
+  return s;
+}
+
+}    // namespace
+
+// The seed paper's third configuration (lattice3d, N = 4096), elastic, under gravity.
+TEST(FixHardSphereGpu, Lattice3dEqualsCpu)
+{
+  const std::vector<std::string> s = lattice3d();
   expect_gpu_equals_cpu("lattice3d", s,
                         "fix hs all hardsphere wall zlo 1.0 wall zhi 1.0 reach 0.75", "run 200",
                         20000);
@@ -92,14 +99,7 @@ TEST(FixHardSphereGpu, Lattice3dEqualsCpu)
 // event per iteration) against the host's serial loop.
 TEST(FixHardSphereGpu, Lattice3dSerialOrderEqualsCpu)
 {
-  std::vector<std::string> s = SPHERES;
-  s.insert(s.end(),
-           {"region box block 0 32 0 32 0 36 units box", "create_box 1 box",
-            "lattice sc 0.125 origin 0.5 0.5 0.5", "region fill block 0 32 0 32 0 32 units box",
-            "create_atoms 1 region fill", "set type 1 diameter 1.0", "set type 1 mass 1.0",
-            "velocity all create 1.0 4928459 dist uniform loop geom",
-            "comm_modify cutoff 3.0 vel yes", "neigh_modify every 1 delay 0 check yes",
-            "fix 1 all nve/sphere", "fix g all gravity 0.1 vector 0 0 -1", "timestep 0.1"});
+  const std::vector<std::string> s = lattice3d();
   expect_gpu_equals_cpu("lattice3d, order serial", s,
                         "fix hs all hardsphere wall zlo 1.0 wall zhi 1.0 reach 0.75 order serial",
                         "run 100", 10000);
