@@ -397,7 +397,6 @@ inline void check_resident_serial(ResidentStep *resident)
       ASSERT_TRUE(same_state(ws, wr, diff)) << wc.name << ", step " << it << " body " << diff;
       pairs += rr.tally.pair;
     }
-    resident->set_serial(false);
     std::printf("[ SERIAL   ] resident step, %s: %ld pair collisions, %ld of %d steps on the "
                 "device\n",
                 wc.name, pairs, on_device, wc.steps);

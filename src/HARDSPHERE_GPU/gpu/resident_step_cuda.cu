@@ -560,16 +560,14 @@ namespace Collide {
     }
 
     // Launch: one thread per body.  The bodies that had events, with their indices, into
-    // out[] and index[] (slots by atomics: the order does not matter to the caller's scatter);
-    // s->changed counts them.
-    __global__ void compact_kernel(const Body *__restrict__ bodies, int n, Body *out, int *index,
-                                   Scalars *s)
+    // out[slot[b]] and index[slot[b]] (slots from number_changed(): in body order).
+    __global__ void compact_kernel(const Body *__restrict__ bodies, int n,
+                                   const int *__restrict__ slot, Body *out, int *index)
     {
       const int b = blockIdx.x * blockDim.x + threadIdx.x;
       if (b >= n || bodies[b].nevents == 0) return;
-      const int slot = atomicAdd(&s->changed, 1);
-      out[slot] = bodies[b];
-      index[slot] = b;
+      out[slot[b]] = bodies[b];
+      index[slot[b]] = b;
     }
 
     // Launch: one thread per atom.  Body i from the caller's arrays (start_body(), as the
@@ -843,6 +841,7 @@ namespace Collide {
       bool resolve_step(const ResidentBox &box, const Params &p, const WindowSettings &s,
                         Tally &total, ResidentReport &report, Clock::time_point t_start);
       bool resolve_serial(const Params &dp, Tally &total, WindowStats &stats);
+      int number_changed();
       ResidentOutcome search(const ResidentBox &box, double maxreach, long &candidates);
       void verify_groups(int ngroups, const char *where);
       int components();
@@ -1285,6 +1284,20 @@ namespace Collide {
       return true;
     }
 
+    /* The bodies that had events, numbered in body order: d_offset[b] is body b's slot among
+       them (an exclusive sum of changed_kernel's flags).  Returns how many there are. */
+    int CudaResidentStep::number_changed()
+    {
+      changed_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_bodies.as<Body>(), n, d_count.as<int>());
+      launched("changed_kernel");
+      cuda_check(cudaMemsetAsync(d_count.as<int>() + n, 0, sizeof(int), stream), "cudaMemset");
+      exclusive_sum(d_count.as<int>(), d_offset.as<int>(), n + 1);
+      cuda_check(cudaMemcpyAsync(&scalars()->changed, d_offset.as<int>() + n, sizeof(int),
+                                 cudaMemcpyDeviceToDevice, stream),
+                 "cudaMemcpy(changed)");
+      return download_scalars().changed;
+    }
+
     void CudaResidentStep::run(Body *bodies, const double *bound, int nbodies,
                                const ResidentBox &box, const Params &p, const WindowSettings &s,
                                Tally &tally, ResidentReport &report)
@@ -1313,11 +1326,10 @@ namespace Collide {
       const auto t_windows = windows_start;
       // Only the bodies that had events come back (the others' drift lines did not change).
       const auto t_down = std::chrono::steady_clock::now();
-      zero(&scalars()->changed);
-      compact_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_bodies.as<Body>(), n, d_snap.as<Body>(),
-                                                       d_gid.as<int>(), scalars());
+      const int changed = number_changed();
+      compact_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_bodies.as<Body>(), n, d_offset.as<int>(),
+                                                       d_snap.as<Body>(), d_gid.as<int>());
       launched("compact_kernel");
-      const int changed = download_scalars().changed;
       fetch(d_snap, host_changed, changed * sizeof(Body), "cudaMemcpy(bodies back)");
       fetch(d_gid, host_index, changed * sizeof(int), "cudaMemcpy(bodies back)");
       cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(bodies back)");
@@ -1405,17 +1417,10 @@ namespace Collide {
       const auto t_down = Clock::now();
       // In body order, so that the host writes the atoms' arrays front to back.
       d_sums.reserve((size_t) n * sizeof(AtomResult), "cudaMalloc(atom results)");
-      changed_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_bodies.as<Body>(), n, d_count.as<int>());
-      launched("changed_kernel");
-      cuda_check(cudaMemsetAsync(d_count.as<int>() + n, 0, sizeof(int), stream), "cudaMemset");
-      exclusive_sum(d_count.as<int>(), d_offset.as<int>(), n + 1);
-      cuda_check(cudaMemcpyAsync(&scalars()->changed, d_offset.as<int>() + n, sizeof(int),
-                                 cudaMemcpyDeviceToDevice, stream),
-                 "cudaMemcpy(changed)");
+      const int changed = number_changed();
       atom_results_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
           d_bodies.as<Body>(), n, p.dt, d_offset.as<int>(), d_sums.as<AtomResult>());
       launched("atom_results_kernel");
-      const int changed = download_scalars().changed;
       report.changed = changed;
       // Many atoms changed and the arrays are page-locked: writing the changed atoms into the
       // device copies of x, v and tlast and copying those back whole costs less than the
@@ -1435,24 +1440,20 @@ namespace Collide {
         cuda_check(cudaMemcpyAsync(a.tlast, d_atlast.ptr, n1, cudaMemcpyDeviceToHost, stream),
                    "cudaMemcpy(tlast)");
         cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(atoms back)");
-        report.t_download = seconds_since(t_down);
-        mark(Profile::download);
-        tally.add(total);
-        report.t_resolve = seconds_since(windows_start);
-        return;
-      }
-      // Room for a quarter of the atoms at once, so that the buffer rarely grows.
-      host_results.reserve(std::max((size_t) changed, (size_t) n / 4) * sizeof(AtomResult),
-                           "cudaMallocHost(atom results)");
-      fetch(d_sums, host_results, changed * sizeof(AtomResult), "cudaMemcpy(atom results)");
-      cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(atom results)");
-      for (int k = 0; k < changed; ++k) {
-        const AtomResult &r = host_results.as<AtomResult>()[k];
-        for (int d = 0; d < 3; ++d) {
-          a.x[3 * r.index + d] = r.x[d];
-          a.v[3 * r.index + d] = r.v[d];
+      } else {
+        // Room for a quarter of the atoms at once, so that the buffer rarely grows.
+        host_results.reserve(std::max((size_t) changed, (size_t) n / 4) * sizeof(AtomResult),
+                             "cudaMallocHost(atom results)");
+        fetch(d_sums, host_results, changed * sizeof(AtomResult), "cudaMemcpy(atom results)");
+        cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(atom results)");
+        for (int k = 0; k < changed; ++k) {
+          const AtomResult &r = host_results.as<AtomResult>()[k];
+          for (int d = 0; d < 3; ++d) {
+            a.x[3 * r.index + d] = r.x[d];
+            a.v[3 * r.index + d] = r.v[d];
+          }
+          a.tlast[r.index] = r.tlast;
         }
-        a.tlast[r.index] = r.tlast;
       }
       report.t_download = seconds_since(t_down);
       mark(Profile::download);
