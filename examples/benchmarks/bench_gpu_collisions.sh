@@ -14,15 +14,18 @@
 #           (../shared/scenes/in.fluid or $HSGPU_SCENES/in.fluid, size = nx, N = nx^3);
 #           steps default 50 (20 from N = 500000)
 #
-# Columns: N; collisions per step; fix ms/step (LAMMPS's Modify time per step: the fix
-# hardsphere step, transfers included) on the CPU and the GPU and their ratio; the GPU's search
-# and resolve ms/step (the fix's timers: search = upload and candidate search, resolve =
-# windows, checks and download) and the part of both spent copying (the run summary's
-# seconds); collisions per second of fix time on the GPU; steps carried out on the device.
+# Columns: N; collisions per step; Modify ms/step (LAMMPS's Modify time per step: the fix
+# hardsphere step, transfers included, and fix nve/sphere) on the CPU and the GPU and their
+# ratio; fix step ms/step (the fix's own timer of its whole step, f_ID[20], which the run
+# summary line gives per step) on the CPU and the GPU and their ratio; the GPU's search and
+# resolve ms/step (the fix's timers: search = upload and candidate search, resolve = windows,
+# checks and download) and the part of both spent copying (the run summary's seconds);
+# collisions per second of the GPU's fix step; steps carried out on the device.
 #
 # HSGPU_BENCH_SERIAL=1 adds a third run per repeat, 'gpu yes order serial' (the seed paper's
 # loop on the device: one device-wide earliest event per iteration), and three columns: its
-# fix ms/step, its ratio to the default order's on the GPU, and its microseconds per event.
+# fix step ms/step, its ratio to the default order's on the GPU, and its microseconds per
+# event (fix step time over the events the run summary counts).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
@@ -52,7 +55,7 @@ median() { sort -g | awk '{v[NR] = $1} END {print (NR % 2) ? v[(NR + 1) / 2] : 0
 
 serial=${HSGPU_BENCH_SERIAL:-0}
 
-# One run; prints "modify search resolve transfer collisions resident steps events".
+# One run; prints "modify search resolve transfer collisions resident steps events fixstep".
 one() {
   local input=$1 log=$2; shift 2
   (cd "$work" && "$lmp" -in "$input" -var plugin "$plugin" "$@" -log "$log" -echo none \
@@ -67,19 +70,20 @@ one() {
   coll=$(sed 's/.* steps, \([0-9.e+]*\) collisions.*/\1/' <<< "$summary")
   search=$(sed 's/.*search \([0-9.e+-]*\) s.*/\1/' <<< "$summary")
   resolve=$(sed 's/.*resolve \([0-9.e+-]*\) s.*/\1/' <<< "$summary")
+  fixstep=$(sed "s/.*the fix's step \([0-9.e+-]*\) ms per step.*/\1/" <<< "$summary")
   transfer=0
   resident=0
   if [ -n "$dev" ]; then
     transfer=$(sed 's/.*device (\([0-9.e+-]*\) s.*/\1/' <<< "$dev")
     resident=$(sed 's/^Fix hardsphere: \([0-9]*\) of.*/\1/' <<< "$dev")
   fi
-  echo "$modify $search $resolve $transfer $coll $resident $steps $events"
+  echo "$modify $search $resolve $transfer $coll $resident $steps $events $fixstep"
 }
 
-head="| config | N | collisions/step | fix ms/step CPU | fix ms/step GPU | CPU/GPU | GPU search ms/step | GPU resolve ms/step | GPU copying ms/step | GPU collisions/s | steps on the device |"
-rule="|---|---|---|---|---|---|---|---|---|---|---|"
+head="| config | N | collisions/step | Modify ms/step CPU | Modify ms/step GPU | CPU/GPU | fix step ms CPU | fix step ms GPU | CPU/GPU | GPU search ms/step | GPU resolve ms/step | GPU copying ms/step | GPU collisions/s (fix step) | steps on the device |"
+rule="|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 if [ "$serial" = 1 ]; then
-  head="$head GPU serial fix ms/step | serial/parallel on the GPU | GPU serial us/event |"
+  head="$head GPU serial fix step ms | serial/parallel on the GPU | GPU serial us/event |"
   rule="$rule---|---|---|"
 fi
 echo "$head"
@@ -105,12 +109,13 @@ for c in "${cases[@]}"; do
   st=$(col gpu 7)
   awk -v cfg="$config" -v n="$n" -v coll="$(col gpu 5)" -v mc="$(col cpu 1)" -v mg="$(col gpu 1)" \
     -v sg="$(col gpu 2)" -v rg="$(col gpu 3)" -v tg="$(col gpu 4)" -v dev="$(col gpu 6)" -v st="$st" \
-    'BEGIN { printf "| %s | %d | %.0f | %.2f | %.2f | %.1f | %.2f | %.2f | %.2f | %.3g | %d of %d |",
-             cfg, n, coll, 1e3 * mc / st, 1e3 * mg / st, mc / mg, 1e3 * sg / st, 1e3 * rg / st,
-             1e3 * tg / st, coll * st / mg, dev, st }'
+    -v fc="$(col cpu 9)" -v fg="$(col gpu 9)" \
+    'BEGIN { printf "| %s | %d | %.0f | %.2f | %.2f | %.1f | %.3f | %.3f | %.1f | %.2f | %.2f | %.2f | %.3g | %d of %d |",
+             cfg, n, coll, 1e3 * mc / st, 1e3 * mg / st, mc / mg, fc, fg, fc / fg, 1e3 * sg / st,
+             1e3 * rg / st, 1e3 * tg / st, 1e3 * coll / fg, dev, st }'
   if [ "$serial" = 1 ]; then
-    awk -v ms="$(col gpus 1)" -v mg="$(col gpu 1)" -v ev="$(col gpus 8)" -v st="$st" \
-      'BEGIN { printf " %.2f | %.1f | %.2f |", 1e3 * ms / st, ms / mg, 1e6 * ms / (ev * st) }'
+    awk -v fs="$(col gpus 9)" -v fg="$(col gpu 9)" -v ev="$(col gpus 8)" \
+      'BEGIN { printf " %.2f | %.1f | %.2f |", fs, fs / fg, 1e3 * fs / ev }'
   fi
   echo
 done

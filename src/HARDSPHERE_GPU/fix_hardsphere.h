@@ -96,6 +96,7 @@ class FixHardSphere : public Fix {
   double last_gathers;     // gathers of the groups that span ranks, last step
   double t_search;         // seconds spent in the candidate search, in total
   double t_resolve;        // seconds spent resolving, in total
+  double t_step;           // seconds spent in the fix's step (post_integrate), in total
   double n_repair;         // groups merged and resolved again after a missed contact, in total
   double n_resident;       // steps carried out whole on the device, in total
   double n_declined;       // steps the device handed back to the host, in total
@@ -103,7 +104,7 @@ class FixHardSphere : public Fix {
     bigint steps = 0;
     double pairs = 0.0, events = 0.0, largest = 0.0, windows = 0.0, groups = 0.0;
     double boundary = 0.0, gathers = 0.0, repairs = 0.0, redos = 0.0;
-    double t_search = 0.0, t_resolve = 0.0;
+    double t_search = 0.0, t_resolve = 0.0, t_step = 0.0;
     bigint resident = 0;                     // steps carried out on the device
     double t_transfer = 0.0;                 // seconds copying bodies to the device and back
     bigint declined[5] = {0, 0, 0, 0, 0};    // steps handed back, by ResidentOutcome
@@ -160,6 +161,7 @@ class FixHardSphere : public Fix {
   HSGPU::Collide::Params step_params() const;
   void forward_state(double drift_dt);
   void step_budget();
+  void check_budget(double vmax2, double amax, double rmax_seen);
   double step_bound(int i, double drift_dt) const;
   bool gather_bodies(double drift_dt);
   int build(double drift_dt, bool collect_pushes);

@@ -120,29 +120,31 @@ void FixHardSphere::step_budget()
   double loc[3] = {0.0, 0.0, 0.0}, glob[3];
   for (int i = 0; i < nlocal; ++i) {
     if (!(mask[i] & groupbit)) continue;
-    const double v2 = v[i][0] * v[i][0] + v[i][1] * v[i][1] + v[i][2] * v[i][2];
-    const double f2 = f[i][0] * f[i][0] + f[i][1] * f[i][1] + f[i][2] * f[i][2];
-    const double a = std::sqrt(f2) * ftm2v / atom->rmass[i];
-    loc[0] = std::max(loc[0], v2);
-    loc[1] = std::max(loc[1], a);
+    loc[0] = std::max(loc[0], HSGPU::Collide::speed2(v[i]));
+    loc[1] = std::max(loc[1], HSGPU::Collide::accel_magnitude(f[i], ftm2v, atom->rmass[i]));
     loc[2] = std::max(loc[2], atom->radius[i]);
   }
   MPI_Allreduce(loc, glob, 3, MPI_DOUBLE, MPI_MAX, world);
-  const double vmax = std::sqrt(glob[0]);
-  const double amax = glob[1];
-  if (glob[2] > rmax * (1.0 + 1e-12))
+  check_budget(glob[0], glob[1], glob[2]);
+}
+
+/* The checks of step_budget() on the maxima over the group's atoms (found on the host, or by
+   the resident step on the device): largest squared speed, acceleration and radius. */
+void FixHardSphere::check_budget(double vmax2, double amax, double rmax_seen)
+{
+  if (rmax_seen > rmax * (1.0 + 1e-12))
     error->all(FLERR,
                "Fix hardsphere: an atom's radius grew to {} during the run; the neighbor "
                "list was set up for a largest radius of {} (start a new run after changing radii)",
-               glob[2], rmax);
+               rmax_seen, rmax);
   const double dt = update->dt;
-  const double least = vmax * dt + 0.5 * amax * dt * dt;
+  const double least = HSGPU::Collide::step_least(vmax2, amax, dt);
   if (least > reach)
     error->all(FLERR,
                "Fix hardsphere: atoms move up to {:.6g} per step (speed {:.6g}, timestep {:.6g}), "
                "more than the reach {:.6g} its ghost atoms cover: reduce the timestep, or raise "
                "the fix's 'reach' keyword",
-               least, vmax, dt, reach);
+               least, std::sqrt(vmax2), dt, reach);
   // Every atom's step bound is at least half the fastest drift: an atom at rest that is hit
   // moves about as far as what hit it, and a bound of zero would make the step's check fail
   // (and the step be redone) each time.
@@ -907,11 +909,15 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
       a.id = atom->tag;
       a.id_bytes = (int) sizeof(tagint);
       a.ftm2v = force->ftm2v;
-      a.bound_floor = bound_floor;
+      a.bound_floor = -1.0;    // the device works out the step budget
       a.reach = reach;
+      a.never = NEVER_COLLIDED;
       resident->run_atoms(a, box, step_params(), wsettings, mine, report);
+      // The budget's checks, and bound_floor for the host should the device decline.
+      check_budget(report.vmax2, report.amax, report.rmax);
     } else {
       gather_bodies(dt);
+      sboost.assign(atom->nlocal, 0.0);
       const int nb = (int) bodies.size();
       sbound.resize(nb);
       for (int b = 0; b < nb; ++b) sbound[b] = step_bound(bodies[b].owner, dt);
@@ -939,20 +945,21 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
   last_windows = (double) report.stats.windows;
   last_boundary = 0.0;
   last_gathers = 0.0;
-  if (!whole) return 1;
-  // The atoms' times of their last collision, relative to the end of this step.
-  for (int i = 0; i < atom->nlocal; ++i) tlast[i] = std::max(tlast[i] - dt, NEVER_COLLIDED);
-  return 2;
+  // With group all the device also shifted every atom's time of last collision to the end of
+  // this step.
+  return whole ? 2 : 1;
 }
 
 void FixHardSphere::post_integrate()
 {
+  const double t_start = MPI_Wtime();
   const double dt = update->dt;
-  step_budget();
-  sboost.assign(atom->nlocal, 0.0);
+  // A whole step on the device (one rank, group all) finds the budget's maxima there.
+  if (!(resident && comm->nprocs == 1 && igroup == 0)) step_budget();
   Tally mine, all;
   const int on_device = step_resident(mine, all);
   if (!on_device) {
+    sboost.assign(atom->nlocal, 0.0);
     prepare(dt);
     if (serial_order)
       step_serial(mine, all);
@@ -992,6 +999,9 @@ void FixHardSphere::post_integrate()
   run_sum.groups += last_groups;
   run_sum.boundary += last_boundary;
   run_sum.gathers += last_gathers;
+  const double spent = MPI_Wtime() - t_start;
+  t_step += spent;
+  run_sum.t_step += spent;
 }
 
 /* One line per run in the log: what the resolution did, for a user asking why a run is slow. */
@@ -1005,12 +1015,13 @@ void FixHardSphere::post_run()
                  "events per "
                  "step; largest group {:.0f} atoms, {:.3g} windows and {:.4g} groups per step, "
                  "{:.0f} repairs, {:.0f} steps redone; {:.4g} atoms per step in groups spanning "
-                 "ranks, {:.3g} gathers per step; search {:.4g} s, resolve {:.4g} s\n",
+                 "ranks, {:.3g} gathers per step; search {:.4g} s, resolve {:.4g} s; the fix's "
+                 "step {:.4g} ms per step\n",
                  serial_order ? "serial" : "parallel",
                  (serial_order && !resident) ? "cpu" : backend->name(), r.steps, r.pairs / n,
                  r.events / n, r.largest, r.windows / n, r.groups / n, n_repair + r.repairs,
                  n_redo + r.redos, r.boundary / n, r.gathers / n, t_search + r.t_search,
-                 t_resolve + r.t_resolve);
+                 t_resolve + r.t_resolve, 1e3 * r.t_step / n);
   if (resident) {
     using HSGPU::Collide::ResidentOutcome;
     auto back = [&](ResidentOutcome o) { return r.declined[(int) o]; };

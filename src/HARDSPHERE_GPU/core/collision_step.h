@@ -97,7 +97,9 @@ namespace Collide {
     drift_position(b, t, x);
     note_excursion(b, x);
     const double bw = bow(b, d, t, p.dt);
-    const double P = x[d] + bw;    // true position normal to the wall
+    // (x[d] and virial[d] below are picked without a runtime index: indexed so, a device
+    // compiler would keep x and the caller's tally in local memory instead of registers.)
+    const double P = (d == 0 ? x[0] : (d == 1 ? x[1] : x[2])) + bw;    // true normal position
     const double u = b.v[d] + b.a[d] * (t - 0.5 * p.dt);
     // The event was found with the body approaching; recomputed here at t, round-off can
     // leave a tiny outward speed: treat that as a contact at zero speed (which rests it)
@@ -126,7 +128,10 @@ namespace Collide {
     const double unew = s * un_out;
     b.v[d] = unew - b.a[d] * (t - 0.5 * p.dt);
     tally.ke_lost += 0.5 * b.mass * (un * un - un_out * un_out);
-    tally.virial[d] += b.mass * (unew - s * un) * (P - p.walls.pos[f]);
+    const double w = b.mass * (unew - s * un) * (P - p.walls.pos[f]);
+    tally.virial[0] = d == 0 ? tally.virial[0] + w : tally.virial[0];
+    tally.virial[1] = d == 1 ? tally.virial[1] + w : tally.virial[1];
+    tally.virial[2] = d == 2 ? tally.virial[2] + w : tally.virial[2];
     tally.wall++;
     b.tlast = t;
   }

@@ -136,6 +136,25 @@ namespace Collide {
     return b;
   }
 
+  /// The step budget (the fastest atom's reach in a step), one definition for the host (fix
+  /// hardsphere's step_budget) and the device (the resident step): an atom's squared speed,
+  /// its acceleration |f| ftm2v / mass, and the least displacement a step of length dt must
+  /// allow for the fastest drift and the largest acceleration.
+  HSGPU_HD double speed2(const double *v)
+  {
+    return v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+  }
+
+  HSGPU_HD double accel_magnitude(const double *f, double ftm2v, double mass)
+  {
+    return sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]) * ftm2v / mass;
+  }
+
+  HSGPU_HD double step_least(double vmax2, double amax, double dt)
+  {
+    return sqrt(vmax2) * dt + 0.5 * amax * dt * dt;
+  }
+
   /// A body's displacement bound for a step of length dt: twice its drift |v| dt, at least
   /// `least` and `raised`, at most `most` (std::max/std::min order, on host and device).
   HSGPU_HD double drift_bound(const double *v, double dt, double least, double raised, double most)

@@ -5,13 +5,15 @@
    backend one window's groups at a time, so every window crosses the host-device link twice.
    A resident step gets the bodies and their step bounds once and does the rest where they
    are: the candidate search (a cell list, nearest image in a periodic box), the windows
-   (window_chooser.h, so the same windows as the driver's), the groups (connected components
+   (window_chooser.h, the driver's choice; with adaptive windows the CUDA step aims at smaller
+   largest groups by default), the groups (connected components
    of each window's edges), their events, each window's check (a pair not joined that could
    have touched is joined and the window resolved again from its start), and the step's check
    (a body that moved further than its step bound).  The bodies come back once, at the end.
 
-   Exact or nothing.  A step it carries out gives the step driver's positions, velocities,
-   event counts and window statistics bit for bit (the same core functions, compiled without
+   Exact or nothing.  A step it carries out gives the step driver's positions, velocities and
+   event counts bit for bit, and its window statistics with the same windows (the same core
+   functions, compiled without
    FMA contraction; event times depend only on the two bodies' states, never on the group or
    the window).  Only the tally's sums of energy lost and virial are added in another order
    (over groups by a tree rather than one by one): they agree to rounding.  Where the step is
@@ -62,6 +64,9 @@ namespace Collide {
     double t_resolve = 0.0;     // seconds: windows, checks and download
     double t_upload = 0.0;      // seconds of t_search copying the bodies to the device
     double t_download = 0.0;    // seconds of t_resolve copying them back
+    // run_atoms(): the step budget's maxima over the atoms (FixHardSphere::step_budget), found
+    // on the device: squared speed, acceleration |f| ftm2v / m, radius.
+    double vmax2 = 0.0, amax = 0.0, rmax = 0.0;
   };
 
   /// A caller's per-atom arrays, when every atom is a body (ResidentStep::run_atoms): the
@@ -73,15 +78,18 @@ namespace Collide {
     // forget_host_arrays().
     double *x;          // 3 per atom: the drift's end point x0 + v dt (in; out: step end)
     double *v;          // 3 per atom: half-step velocities (in; out)
-    double *tlast;      // time of the last collision relative to the step start (in; out)
+    double *tlast;      // time of the last collision relative to the step start (in); out:
+                        // relative to the step end, max(t - dt, never), for every atom
     const double *f;    // 3 per atom: forces
     const double *radius, *rmass;
     const int *type;
     const void *id;    // atom IDs, id_bytes (4 or 8) each
     int id_bytes;
     double ftm2v;          // acceleration = f ftm2v / rmass
-    double bound_floor;    // step bound: min(max(2 |v| dt, bound_floor), reach)
+    double bound_floor;    // step bound: min(max(2 |v| dt, bound_floor), reach); negative: the
+                           // step's own, half of step_least() of the atoms' maxima (the report's)
     double reach;
+    double never;    // the least time of last collision (an atom that never collided)
   };
 
   class ResidentStep {
@@ -96,9 +104,10 @@ namespace Collide {
     /// step page-locks them in place between steps).
     virtual void forget_host_arrays() {}
     /// The step of the atoms in `a` (start points x - v dt), as run() over the bodies built
-    /// from them, with the step bounds of ResidentAtoms.  On `done` x, v and tlast of the
-    /// atoms that had events are those at the step end (tlast still relative to the step
-    /// start), the others are as given, and `tally` holds the events.
+    /// from them, with the step bounds of ResidentAtoms.  On `done` x and v of the atoms that
+    /// had events are those at the step end, the others' are as given, every atom's tlast is
+    /// relative to the step end, and `tally` holds the events; otherwise the arrays are as
+    /// given.  The report's budget maxima are filled in either way.
     virtual void run_atoms(const ResidentAtoms &a, const ResidentBox &box, const Params &p,
                            const WindowSettings &s, Tally &tally, ResidentReport &report) = 0;
     /// The step of bodies[0 .. n) (states at the step start, x = X0, tref = 0) with their step

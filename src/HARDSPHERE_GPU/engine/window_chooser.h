@@ -1,6 +1,6 @@
 /* HARDSPHERE_GPU collision engine: the choice of a step's time windows, shared by the host
    step driver (window_driver.h) and the device-resident step (resident_step.h), so that both
-   cut a step into the same windows and report the same group sizes.
+   cut a step into windows the same way (the device with its own default target).
 
    Fixed windows: n equal windows.  Adaptive windows: a window starts at twice the previous
    one's length (at most what is left of the step) and is halved while its largest group

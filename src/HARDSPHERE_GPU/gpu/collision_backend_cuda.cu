@@ -41,7 +41,8 @@ namespace Collide {
     // lanes of one warp order their accesses with __syncwarp() (group_loop_warp.cuh).
     __global__ void resolve_groups_kernel(GroupGraph graph, const int *__restrict__ gstart,
                                           const int *__restrict__ gmembers, int ngroups,
-                                          int last_group, double t_end, Params p, long budget,
+                                          int last_group, double t_end,
+                                          const __grid_constant__ Params p, long budget,
                                           int capped_group, long capped_budget,
                                           Tally *__restrict__ tallies)
     {

@@ -51,6 +51,8 @@
 #include <cub/device/device_reduce.cuh>
 #include <cub/block/block_reduce.cuh>
 #include <cub/device/device_scan.cuh>
+#include <cub/device/device_partition.cuh>
+#include <thrust/iterator/counting_iterator.h>
 
 #include <algorithm>
 #include <chrono>
@@ -72,6 +74,9 @@ namespace Collide {
 
     constexpr int BLOCK = 256;
     constexpr int GROUP_BLOCK = 128;
+    // Groups up to this size are resolved by one thread each, larger ones by a warp (measured
+    // on an H100: 1, 2 and 4 within 5% at N = 65536 and 1e6, 8 and more slower).
+    constexpr int SMALL_GROUP = 2;
     /// Relative margin on contact distances in the join and check tests (window_driver.cpp's).
     constexpr double MARGIN = 1e-9;
 
@@ -118,6 +123,8 @@ namespace Collide {
       unsigned long long rmax;        // bits of the largest radius
       unsigned long long maxexc;      // bits of the largest excursion in the step
       int candidates;                 // candidate pairs
+      int nmulti;                     // groups of two or more bodies (the rest: single bodies)
+      int next_group;                 // resolve_kernel's next group to take
       WinSum win;                     // the window's tally
     };
 
@@ -144,20 +151,40 @@ namespace Collide {
       }
     };
 
-    // Launch: blocks of BLOCK threads, one thread per body (n).  Largest r + bound, radius and
+    /* Kernels that read most of each Body (208 bytes) take their block's bodies into shared
+       memory first, 8-byte words side by side: a thread reading its own Body field by field
+       would make every load of the warp touch 32 separate sectors. */
+    constexpr int TILE = 128;    // bodies per tile, the block size of those kernels
+    constexpr int BODY_WORDS = sizeof(Body) / sizeof(unsigned long long);
+
+    /// The block's bodies [blockIdx.x TILE, + TILE) (those below n) into tile; every thread of
+    /// the block must call it.
+    __device__ void load_tile(const Body *bodies, int n, Body *tile)
+    {
+      const int first = blockIdx.x * TILE;
+      const int words = max(0, min(TILE, n - first)) * BODY_WORDS;
+      const unsigned long long *src = reinterpret_cast<const unsigned long long *>(bodies + first);
+      unsigned long long *dst = reinterpret_cast<unsigned long long *>(tile);
+      for (int w = threadIdx.x; w < words; w += TILE) dst[w] = src[w];
+      __syncthreads();
+    }
+
+    // Launch: blocks of TILE threads, one thread per body (n).  Largest r + bound, radius and
     // |v|^2 into s (one atomic per block and value: bits of non-negative doubles order as
     // integers), s->overlap where a sphere is more than tol x its radius inside a wall at its
     // start point.  Reads n Bodies and n bounds.
-    __global__ void scan_bodies_kernel(const Body *__restrict__ bodies,
-                                       const double *__restrict__ bound, int n, Walls walls,
-                                       double tol, Scalars *s)
+    __global__ void __launch_bounds__(TILE)
+        scan_bodies_kernel(const Body *__restrict__ bodies, const double *__restrict__ bound, int n,
+                           Walls walls, double tol, Scalars *s)
     {
-      using Reduce = cub::BlockReduce<Max3, BLOCK>;
+      using Reduce = cub::BlockReduce<Max3, TILE>;
       __shared__ typename Reduce::TempStorage scratch;
-      const int b = blockIdx.x * blockDim.x + threadIdx.x;
+      __shared__ Body tile[TILE];
+      load_tile(bodies, n, tile);
+      const int b = blockIdx.x * TILE + threadIdx.x;
       Max3 m{{0.0, 0.0, 0.0}};
       if (b < n) {
-        const Body &bd = bodies[b];
+        const Body &bd = tile[threadIdx.x];
         m = Max3{{bd.radius + bound[b], bd.radius, Contact::dot3(bd.v, bd.v)}};
         for (int f = 0; f < NFACES; ++f) {
           if (!walls.on[f]) continue;
@@ -198,25 +225,53 @@ namespace Collide {
       val[b] = b;
     }
 
-    // Launch: one thread per sorted position (n).  cstart/cend (zeroed) get every occupied
-    // cell's range of sorted positions.
-    __global__ void cell_range_kernel(const int *__restrict__ key, int n, int *cstart, int *cend)
+    /// What the pair search reads of a body, stored in cell order so that a cell's bodies lie
+    /// side by side (48 bytes instead of three scattered lines of a 208-byte Body).
+    struct NearPoint {
+      double x[3];    // start point X0
+      double radius;
+    };
+    struct NearTag {
+      double bound;    // step bound
+      long long id;
+    };
+
+    // Launch: one thread per sorted position k (n), body order[k].  cstart/cend (zeroed) get
+    // every occupied cell's range of sorted positions; pts[k] and tags[k] the body's start
+    // point, radius, step bound and ID.
+    __global__ void cell_range_kernel(const int *__restrict__ key, const int *__restrict__ order,
+                                      const Body *__restrict__ bodies,
+                                      const double *__restrict__ bound, int n, int *cstart,
+                                      int *cend, NearPoint *pts, NearTag *tags)
     {
       const int k = blockIdx.x * blockDim.x + threadIdx.x;
       if (k >= n) return;
       if (k == 0 || key[k] != key[k - 1]) cstart[key[k]] = k;
       if (k == n - 1 || key[k] != key[k + 1]) cend[key[k]] = k + 1;
+      const Body &b = bodies[order[k]];
+      NearPoint p;
+      for (int d = 0; d < 3; ++d) p.x[d] = b.X0[d];
+      p.radius = b.radius;
+      pts[k] = p;
+      tags[k] = NearTag{bound[order[k]], (long long) b.id};
     }
 
-    // Calls visit(j, lo, hi, ilo, ihi, r, sh) for every body j != i in the 27 cells around c,
-    // the cell of body i (each cell once), with the pair ordered lower ID first (lo = body ilo)
-    // and r, sh the nearest-image separation of their start points and its image shift.
+    // Calls visit(j, bi, bj, ilo, ihi, r, sh) for every body j != i in the 27 cells around c,
+    // the cell of body i = order[k] (each cell once), with bi, bj their NearBody, ilo, ihi the
+    // pair ordered lower ID first, and r, sh the nearest-image separation of the start points
+    // x_ilo - x_ihi and its image shift.
+    struct NearBody {
+      NearPoint p;
+      NearTag t;
+    };
     template <class Visit>
-    __device__ void for_each_near(const Body *bodies, int i, int c, const Grid &g, const int *order,
-                                  const int *cstart, const int *cend, Visit &&visit)
+    __device__ void for_each_near(const NearPoint *pts, const NearTag *tags, int k, int c,
+                                  const Grid &g, const int *order, const int *cstart,
+                                  const int *cend, Visit &&visit)
     {
       const int ci[3] = {c % g.n[0], (c / g.n[0]) % g.n[1], c / (g.n[0] * g.n[1])};
-      const Body &bi = bodies[i];
+      const int i = order[k];
+      const NearBody bi{pts[k], tags[k]};
       for (int dz = -1; dz <= 1; ++dz) {
         int cz = ci[2] + dz;
         if (g.periodic[2])
@@ -237,28 +292,84 @@ namespace Collide {
               continue;
             const int cc = (cz * g.n[1] + cy) * g.n[0] + cx;
             for (int m = cstart[cc]; m < cend[cc]; ++m) {
+              if (m == k) continue;
               const int j = order[m];
-              if (j == i) continue;
-              const Body &bj = bodies[j];
-              const bool swap = bj.id < bi.id;
-              double r[3], sh[3];
-              const Body &lo = swap ? bj : bi, &hi = swap ? bi : bj;
-              nearest_image_separation(lo.X0, hi.X0, g.prd, g.periodic, r, sh);
-              visit(j, lo, hi, swap ? j : i, swap ? i : j, r, sh);
+              const NearBody bj{pts[m], tags[m]};
+              const bool swap = bj.t.id < bi.t.id;
+              // Lower ID first, picked per component: a pointer or reference chosen between
+              // two local objects would put both in local memory.
+              double xl[3], xh[3], r[3], sh[3];
+              for (int d = 0; d < 3; ++d) {
+                xl[d] = swap ? bj.p.x[d] : bi.p.x[d];
+                xh[d] = swap ? bi.p.x[d] : bj.p.x[d];
+              }
+              nearest_image_separation(xl, xh, g.prd, g.periodic, r, sh);
+              visit(j, bi, bj, swap ? j : i, swap ? i : j, r, sh);
             }
           }
         }
       }
     }
 
-    // Launch: one thread per sorted position k (n), body i = order[k].  Visits the bodies j > i
-    // in the 27 cells around i's and tests the pair as the host search does: lower ID first,
-    // nearest image of the start points, |r| <= (r_lo + r_hi) + (bound_lo + bound_hi).  FILL
-    // false: count[k] = its pairs, s->overlap where a pair is closer than (1 - tol) contact.
-    // FILL true: the pairs go to edges[offset[k] ...], in visiting order.  Reads the start
-    // points of the neighbours: about 27 x (cell occupancy) Bodies per thread, from L2.
+    // Calls visit(j, bi, bj, ilo, ihi, r, sh) for every pair of body i = order[k] with a body
+    // j in half of the 27 cells around c, i's cell: the later bodies of c and the bodies of the
+    // 13 cells at positive offsets (dz > 0, or dz = 0 and dy > 0, or dz = dy = 0 and dx > 0).
+    // Over all k every pair of neighbouring cells is visited once (a periodic length holds at
+    // least three cells), so every pair once.  Arguments as for_each_near's.
+    template <class Visit>
+    __device__ void for_each_half_near(const NearPoint *pts, const NearTag *tags, int k, int c,
+                                       const Grid &g, const int *order, const int *cstart,
+                                       const int *cend, Visit &&visit)
+    {
+      const int ci[3] = {c % g.n[0], (c / g.n[0]) % g.n[1], c / (g.n[0] * g.n[1])};
+      const int i = order[k];
+      const NearBody bi{pts[k], tags[k]};
+      for (int dz = 0; dz <= 1; ++dz) {
+        int cz = ci[2] + dz;
+        if (g.periodic[2])
+          cz = cz % g.n[2];
+        else if (cz >= g.n[2])
+          continue;
+        for (int dy = (dz > 0 ? -1 : 0); dy <= 1; ++dy) {
+          int cy = ci[1] + dy;
+          if (g.periodic[1])
+            cy = (cy + g.n[1]) % g.n[1];
+          else if (cy < 0 || cy >= g.n[1])
+            continue;
+          for (int dx = (dz > 0 || dy > 0 ? -1 : 0); dx <= 1; ++dx) {
+            int cx = ci[0] + dx;
+            if (g.periodic[0])
+              cx = (cx + g.n[0]) % g.n[0];
+            else if (cx < 0 || cx >= g.n[0])
+              continue;
+            const int cc = (cz * g.n[1] + cy) * g.n[0] + cx;
+            // The own cell (all offsets 0): only the bodies after k.
+            const int first = (dz == 0 && dy == 0 && dx == 0) ? k + 1 : cstart[cc];
+            for (int m = first; m < cend[cc]; ++m) {
+              const int j = order[m];
+              const NearBody bj{pts[m], tags[m]};
+              const bool swap = bj.t.id < bi.t.id;
+              double xl[3], xh[3], r[3], sh[3];
+              for (int d = 0; d < 3; ++d) {
+                xl[d] = swap ? bj.p.x[d] : bi.p.x[d];
+                xh[d] = swap ? bi.p.x[d] : bj.p.x[d];
+              }
+              nearest_image_separation(xl, xh, g.prd, g.periodic, r, sh);
+              visit(j, bi, bj, swap ? j : i, swap ? i : j, r, sh);
+            }
+          }
+        }
+      }
+    }
+
+    // Launch: one thread per sorted position k (n), body i = order[k].  Tests the pairs of
+    // for_each_half_near() as the host search does: lower ID first, nearest image of the
+    // start points, |r| <= (r_lo + r_hi) + (bound_lo + bound_hi).  FILL false: count[k] = its
+    // pairs, s->overlap where a pair is closer than (1 - tol) contact.  FILL true: the pairs go
+    // to edges[offset[k] ...], in visiting order.  Reads about 14 x (cell occupancy) x 52
+    // bytes per thread, a cell's bodies side by side.
     template <bool FILL>
-    __global__ void pair_kernel(const Body *__restrict__ bodies, const double *__restrict__ bound,
+    __global__ void pair_kernel(const NearPoint *__restrict__ pts, const NearTag *__restrict__ tags,
                                 int n, Grid g, const int *__restrict__ key,
                                 const int *__restrict__ order, const int *__restrict__ cstart,
                                 const int *__restrict__ cend, int *count,
@@ -266,28 +377,28 @@ namespace Collide {
     {
       const int k = blockIdx.x * blockDim.x + threadIdx.x;
       if (k >= n) return;
-      const int i = order[k];
       int found = 0, overlap = 0;
       Edge *out = FILL ? edges + offset[k] : nullptr;
-      for_each_near(bodies, i, key[k], g, order, cstart, cend,
-                    [&](int j, const Body &lo, const Body &hi, int ilo, int ihi, const double *r,
-                        const double *sh) {
-                      if (j <= i) return;    // each pair once, from its lower index
-                      const double range = (lo.radius + hi.radius) + (bound[ilo] + bound[ihi]);
-                      const double d2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
-                      if (d2 > range * range) return;
-                      if (FILL) {
-                        Edge e;
-                        e.i = ilo;
-                        e.j = ihi;
-                        for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
-                        out[found] = e;
-                      } else {
-                        const double lim = (lo.radius + hi.radius) * (1.0 - tol);
-                        if (d2 < lim * lim) overlap = 1;
-                      }
-                      ++found;
-                    });
+      for_each_half_near(pts, tags, k, key[k], g, order, cstart, cend,
+                         [&](int, const NearBody &bi, const NearBody &bj, int ilo, int ihi,
+                             const double *r, const double *sh) {
+                           // (sums in either order: the same bits)
+                           const double range =
+                               (bi.p.radius + bj.p.radius) + (bi.t.bound + bj.t.bound);
+                           const double d2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+                           if (d2 > range * range) return;
+                           if (FILL) {
+                             Edge e;
+                             e.i = ilo;
+                             e.j = ihi;
+                             for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
+                             out[found] = e;
+                           } else {
+                             const double lim = (bi.p.radius + bj.p.radius) * (1.0 - tol);
+                             if (d2 < lim * lim) overlap = 1;
+                           }
+                           ++found;
+                         });
       if (!FILL) {
         count[k] = found;
         if (overlap) s->overlap = 1;
@@ -313,16 +424,22 @@ namespace Collide {
       adj[atomicAdd(&fill[edges[q].j], 1)] = q;
     }
 
-    // Launch: one thread per body.  The window [t0, t0 + delta): start point w0, excursion
-    // reset, bound max(kf |v|, floor) delta (window_driver.cpp's arithmetic).
-    __global__ void window_start_kernel(Body *bodies, int n, double t0, double delta, double kf,
-                                        double floor_speed, double *wbound)
+    // Launch: blocks of TILE threads, one thread per body.  The window [t0, t0 + delta): start
+    // point w0, excursion reset, bound max(kf |v|, floor) delta (window_driver.cpp's
+    // arithmetic).
+    __global__ void __launch_bounds__(TILE)
+        window_start_kernel(Body *bodies, int n, double t0, double delta, double kf,
+                            double floor_speed, double *wbound)
     {
-      const int b = blockIdx.x * blockDim.x + threadIdx.x;
+      __shared__ Body tile[TILE];
+      load_tile(bodies, n, tile);
+      const int b = blockIdx.x * TILE + threadIdx.x;
       if (b >= n) return;
-      Body &bd = bodies[b];
-      drift_position(bd, t0, bd.w0);
-      bd.wexc2 = 0.0;
+      const Body &bd = tile[threadIdx.x];
+      double w0[3];
+      drift_position(bd, t0, w0);
+      for (int d = 0; d < 3; ++d) bodies[b].w0[d] = w0[d];
+      bodies[b].wexc2 = 0.0;
       const double speed = sqrt(Contact::dot3(bd.v, bd.v));
       wbound[b] = fmax(kf * speed, floor_speed) * delta;
     }
@@ -436,19 +553,9 @@ namespace Collide {
       gmembers[goff[r] + atomicAdd(&fill[r], 1)] = b;
     }
 
-    // Launch: one warp per group (32 ngroups threads, blocks of whole warps).  Group g's
-    // events before t_end, at most budget (group_loop_warp.cuh); its tally (summed in event
-    // order from zero) and whether it had an event into sums[g].
-    __global__ void resolve_kernel(GroupGraph graph, const int *__restrict__ gstart,
-                                   const int *__restrict__ gmembers, int ngroups, double t_end,
-                                   Params p, long budget, WinSum *sums)
+    /// A group's tally as the window's sums take it.
+    __device__ WinSum win_sum(const Tally &t)
     {
-      const int g = (int) (((long) blockIdx.x * blockDim.x + threadIdx.x) >> 5);
-      if (g >= ngroups) return;    // whole warps leave together
-      const int lo = gstart[g], hi = gstart[g + 1];
-      Tally t;
-      resolve_group_warp(graph, p, gmembers + lo, hi - lo, t_end, budget, t);
-      if ((threadIdx.x & 31) != 0) return;
       WinSum w;
       w.pair = t.pair;
       w.wall = t.wall;
@@ -458,18 +565,75 @@ namespace Collide {
       w.ke_lost = t.ke_lost;
       for (int k = 0; k < 6; ++k) w.virial[k] = t.virial[k];
       w.capped = t.capped;
-      sums[g] = w;
+      return w;
+    }
+
+    /// Groups of more than `small` bodies (cub::DevicePartition puts them first).
+    struct IsLarge {
+      const int *gstart;
+      int small;
+      __device__ bool operator()(int g) const { return gstart[g + 1] - gstart[g] > small; }
+    };
+
+    // Launch: whole warps, any number.  Each warp takes the next of the s->nmulti groups of
+    // two or more bodies (order[0 .. nmulti), taken through s->next_group, zeroed) until none
+    // is left: its events before t_end, at most budget (group_loop_warp.cuh), and its tally
+    // (summed in event order from zero) into sums[k] for order[k].
+    __global__ void resolve_kernel(GroupGraph graph, const int *__restrict__ gstart,
+                                   const int *__restrict__ gmembers, const int *__restrict__ order,
+                                   double t_end, const __grid_constant__ Params p, long budget,
+                                   Scalars *s, WinSum *sums)
+    {
+      const int lane = threadIdx.x & 31;
+      const int nmulti = s->nmulti;
+      while (true) {
+        int k = 0;
+        if (lane == 0) k = atomicAdd(&s->next_group, 1);
+        k = __shfl_sync(WarpLoop::FULL, k, 0);
+        if (k >= nmulti) return;    // whole warps leave together
+        const int g = order[k];
+        const int lo = gstart[g], hi = gstart[g + 1];
+        Tally t;
+        resolve_group_warp(graph, p, gmembers + lo, hi - lo, t_end, budget, t);
+        if (lane == 0) sums[k] = win_sum(t);
+      }
+    }
+
+    // Launch: one thread per entry k of order[s->nmulti .. ngroups) (grid-stride): the groups
+    // of one body, each resolved by one thread (collision_group_loop.h: a wall's events
+    // only), the tally into sums[k].
+    __global__ void resolve_single_kernel(GroupGraph graph, const int *__restrict__ gstart,
+                                          const int *__restrict__ gmembers,
+                                          const int *__restrict__ order, int ngroups, double t_end,
+                                          const __grid_constant__ Params p, long budget,
+                                          const Scalars *s, WinSum *sums)
+    {
+      const int stride = gridDim.x * blockDim.x;
+      for (int k = s->nmulti + blockIdx.x * blockDim.x + threadIdx.x; k < ngroups; k += stride) {
+        const int g = order[k];
+        Tally t;
+        resolve_group_exact(graph, p, gmembers + gstart[g], gstart[g + 1] - gstart[g], t_end,
+                            budget, t);
+        sums[k] = win_sum(t);
+      }
     }
 
     // Launch: one thread per body.  Excursion from the window start point at t1.
-    __global__ void excursion_kernel(Body *bodies, int n, double t1, double *lexc)
+    __global__ void __launch_bounds__(TILE)
+        excursion_kernel(Body *bodies, int n, double t1, double *lexc)
     {
-      const int b = blockIdx.x * blockDim.x + threadIdx.x;
+      __shared__ Body tile[TILE];
+      load_tile(bodies, n, tile);
+      const int b = blockIdx.x * TILE + threadIdx.x;
       if (b >= n) return;
+      Body &bd = tile[threadIdx.x];
+      const double exc2 = bd.exc2, wexc2 = bd.wexc2;
       double x[3];
-      drift_position(bodies[b], t1, x);
-      note_excursion(bodies[b], x);
-      lexc[b] = sqrt(bodies[b].wexc2);
+      drift_position(bd, t1, x);
+      note_excursion(bd, x);
+      if (bd.exc2 != exc2) bodies[b].exc2 = bd.exc2;
+      if (bd.wexc2 != wexc2) bodies[b].wexc2 = bd.wexc2;
+      lexc[b] = sqrt(bd.wexc2);
     }
 
     // Launch: one thread per candidate edge.  A pair not joined that could have touched (a
@@ -503,21 +667,28 @@ namespace Collide {
       }
     };
 
-    // Launch: blocks of BLOCK threads, one thread per body.  The end of the step: excursion
+    // Launch: blocks of TILE threads, one thread per body.  The end of the step: excursion
     // noted at dt (as end_of_step() does) and kept in exc[b]; s->excursion counts bodies
     // beyond their step bound, s->maxexc the largest excursion (one atomic per block each).
-    __global__ void end_kernel(Body *bodies, int n, double dt, const double *__restrict__ bound,
-                               double *exc, Scalars *s)
+    __global__ void __launch_bounds__(TILE)
+        end_kernel(Body *bodies, int n, double dt, const double *__restrict__ bound, double *exc,
+                   Scalars *s)
     {
-      using Reduce = cub::BlockReduce<ExcursionSum, BLOCK>;
+      using Reduce = cub::BlockReduce<ExcursionSum, TILE>;
       __shared__ typename Reduce::TempStorage scratch;
-      const int b = blockIdx.x * blockDim.x + threadIdx.x;
+      __shared__ Body tile[TILE];
+      load_tile(bodies, n, tile);
+      const int b = blockIdx.x * TILE + threadIdx.x;
       ExcursionSum mine{0.0, 0};
       if (b < n) {
+        Body &bd = tile[threadIdx.x];
+        const double exc2 = bd.exc2, wexc2 = bd.wexc2;
         double x[3];
-        drift_position(bodies[b], dt, x);
-        note_excursion(bodies[b], x);
-        const double e = sqrt(bodies[b].exc2);
+        drift_position(bd, dt, x);
+        note_excursion(bd, x);
+        if (bd.exc2 != exc2) bodies[b].exc2 = bd.exc2;
+        if (bd.wexc2 != wexc2) bodies[b].wexc2 = bd.wexc2;
+        const double e = sqrt(bd.exc2);
         exc[b] = e;
         mine = ExcursionSum{e, e > bound[b] ? 1 : 0};
       }
@@ -532,7 +703,8 @@ namespace Collide {
     // neighbour that was not a candidate could have touched if the two moved at least its gap
     // together; s->missed_step is set for such a pair, or where the body's partners could lie
     // beyond the cells around it (exc_i + maxexc + 2 rmax not below the narrowest cell).
-    __global__ void step_check_kernel(const Body *__restrict__ bodies,
+    __global__ void step_check_kernel(const NearPoint *__restrict__ pts,
+                                      const NearTag *__restrict__ tags,
                                       const double *__restrict__ bound,
                                       const double *__restrict__ exc, int n, Grid g,
                                       const int *__restrict__ key, const int *__restrict__ order,
@@ -548,12 +720,12 @@ namespace Collide {
         s->missed_step = 1;
         return;
       }
-      for_each_near(bodies, i, key[k], g, order, cstart, cend,
-                    [&](int j, const Body &lo, const Body &hi, int ilo, int ihi, const double *r,
+      for_each_near(pts, tags, k, key[k], g, order, cstart, cend,
+                    [&](int j, const NearBody &bi, const NearBody &bj, int, int, const double *r,
                         const double *) {
                       const double dist = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
-                      const double contact = lo.radius + hi.radius;
-                      if (dist <= contact + (bound[ilo] + bound[ihi])) return;    // a candidate
+                      const double contact = bi.p.radius + bj.p.radius;
+                      if (dist <= contact + (bi.t.bound + bj.t.bound)) return;    // a candidate
                       if (dist - contact > exc[i] + exc[j] + tol * contact) return;
                       s->missed_step = 1;
                     });
@@ -570,23 +742,42 @@ namespace Collide {
       index[slot[b]] = b;
     }
 
-    // Launch: one thread per atom.  Body i from the caller's arrays (start_body(), as the
-    // host's FixHardSphere::gather_bodies() builds it) and its step bound (drift_bound(), as
-    // FixHardSphere::step_bound(), with boost[i] the bound raised by a failed check).
+    // Launch: blocks of BUILD_BLOCK threads, one per atom.  Body i from the caller's arrays
+    // (start_body(), as the host's FixHardSphere::gather_bodies() builds it) and its step bound
+    // (drift_bound(), as FixHardSphere::step_bound(), with boost[i] the bound raised by a failed
+    // check).
+    constexpr int BUILD_BLOCK = 128;    // build_kernel's blocks: a tile of Bodies in shared memory
+    static_assert(sizeof(Body) % sizeof(unsigned long long) == 0, "Bodies copied as 8-byte words");
     template <class Id>
-    __global__ void build_kernel(const double *__restrict__ x, const double *__restrict__ v,
-                                 const double *__restrict__ f, const double *__restrict__ radius,
-                                 const double *__restrict__ rmass, const double *__restrict__ tlast,
-                                 const int *__restrict__ type, const Id *__restrict__ id,
-                                 const double *__restrict__ boost, int n, double dt, double ftm2v,
-                                 double floor_bound, double reach, Body *bodies, double *bound)
+    __global__ void __launch_bounds__(BUILD_BLOCK)
+        build_kernel(const double *__restrict__ x, const double *__restrict__ v,
+                     const double *__restrict__ f, const double *__restrict__ radius,
+                     const double *__restrict__ rmass, const double *__restrict__ tlast,
+                     const int *__restrict__ type, const Id *__restrict__ id,
+                     const double *__restrict__ boost, int n, double dt, double ftm2v,
+                     double floor_bound, const unsigned long long *__restrict__ budget,
+                     double reach, Body *bodies, double *bound)
     {
-      const int i = blockIdx.x * blockDim.x + threadIdx.x;
-      if (i >= n) return;
-      const Body b = start_body(x + 3 * i, v + 3 * i, f + 3 * i, radius[i], rmass[i], tlast[i],
-                                (long) id[i], type[i], i, dt, ftm2v);
-      bodies[i] = b;
-      bound[i] = drift_bound(v + 3 * i, dt, floor_bound, boost[i], reach);
+      const int i = blockIdx.x * BUILD_BLOCK + threadIdx.x;
+      // A negative floor: half the least displacement of the step budget (the host's formula).
+      if (floor_bound < 0.0)
+        floor_bound = 0.5 * step_least(__longlong_as_double((long long) budget[0]),
+                                       __longlong_as_double((long long) budget[1]), dt);
+      // Each thread's Body goes to a tile, and the block's tile to `bodies` word by word:
+      // adjacent threads write adjacent words (a Body per thread would be 26 scattered stores).
+      __shared__ Body tile[BUILD_BLOCK];
+      if (i < n) {
+        tile[threadIdx.x] = start_body(x + 3 * i, v + 3 * i, f + 3 * i, radius[i], rmass[i],
+                                       tlast[i], (long) id[i], type[i], i, dt, ftm2v);
+        bound[i] = drift_bound(v + 3 * i, dt, floor_bound, boost[i], reach);
+      }
+      __syncthreads();
+      constexpr int WORDS = sizeof(Body) / sizeof(unsigned long long);
+      const int first = blockIdx.x * BUILD_BLOCK;
+      const int words = min(BUILD_BLOCK, n - first) * WORDS;
+      const unsigned long long *src = reinterpret_cast<const unsigned long long *>(tile);
+      unsigned long long *dst = reinterpret_cast<unsigned long long *>(bodies + first);
+      for (int w = threadIdx.x; w < words; w += BUILD_BLOCK) dst[w] = src[w];
     }
 
     // Launch: one thread per body.  After a step whose check failed: every body that moved
@@ -600,10 +791,39 @@ namespace Collide {
       boost[b] = fmax(boost[b], 2.0 * exc[b]);
     }
 
+    // Launch: blocks of BLOCK threads, one thread per atom (n).  The step budget's maxima over
+    // the atoms (FixHardSphere::step_budget's loop, the same core functions): |v|^2,
+    // |f| ftm2v / m and the radius, as bits into out[0 .. 2] (zeroed; one atomic per block and
+    // value).  Reads 64 bytes per atom.
+    __global__ void budget_kernel(const double *__restrict__ v, const double *__restrict__ f,
+                                  const double *__restrict__ rmass,
+                                  const double *__restrict__ radius, int n, double ftm2v,
+                                  unsigned long long *out)
+    {
+      using Reduce = cub::BlockReduce<Max3, BLOCK>;
+      __shared__ typename Reduce::TempStorage scratch;
+      const int i = blockIdx.x * blockDim.x + threadIdx.x;
+      Max3 m{{0.0, 0.0, 0.0}};
+      if (i < n)
+        m = Max3{{speed2(v + 3 * i), accel_magnitude(f + 3 * i, ftm2v, rmass[i]), radius[i]}};
+      m = Reduce(scratch).Reduce(m, Max3Op());
+      if (threadIdx.x != 0) return;
+      for (int k = 0; k < 3; ++k) atomic_max_bits(&out[k], m.v[k]);
+    }
+
+    // Launch: one thread per body (n).  Every atom's time of last collision, relative to the
+    // step end (the host's shift: max(t - dt, never)), into the device copy of the caller's.
+    __global__ void tlast_end_kernel(const Body *__restrict__ bodies, int n, double dt,
+                                     double never, double *tlast)
+    {
+      const int b = blockIdx.x * blockDim.x + threadIdx.x;
+      if (b < n) tlast[bodies[b].owner] = fmax(bodies[b].tlast - dt, never);
+    }
+
     /// What goes back to the caller for an atom that had events.
     struct AtomResult {
       int index;
-      double x[3], v[3], tlast;
+      double x[3], v[3];
     };
 
     // Launch: one thread per body (n).  flag[b] = 1 where body b had events, else 0.
@@ -625,14 +845,13 @@ namespace Collide {
       r.index = bodies[b].owner;
       drift_position(bodies[b], dt, r.x);
       for (int d = 0; d < 3; ++d) r.v[d] = bodies[b].v[d];
-      r.tlast = bodies[b].tlast;
       out[slot[b]] = r;
     }
 
     // Launch: one thread per result (changed).  Result k into the device copies of the
-    // caller's x, v and tlast.
+    // caller's x and v.
     __global__ void atom_write_kernel(const AtomResult *__restrict__ res, int changed, double *x,
-                                      double *v, double *tlast)
+                                      double *v)
     {
       const int k = blockIdx.x * blockDim.x + threadIdx.x;
       if (k >= changed) return;
@@ -641,7 +860,6 @@ namespace Collide {
         x[3 * r.index + d] = r.x[d];
         v[3 * r.index + d] = r.v[d];
       }
-      tlast[r.index] = r.tlast;
     }
 
     using Clock = std::chrono::steady_clock;
@@ -666,11 +884,11 @@ namespace Collide {
       {
         cudaSetDevice(device);
         for (DeviceBuffer *b :
-             {&d_bodies,    &d_snap,   &d_bound, &d_scalars, &d_key,    &d_val,    &d_key2,
-              &d_val2,      &d_cstart, &d_cend,  &d_count,   &d_offset, &d_edges,  &d_deg,
-              &d_adj_start, &d_fill,   &d_adj,   &d_joined,  &d_wbound, &d_parent, &d_root,
-              &d_size,      &d_isroot, &d_rsize, &d_gid,     &d_goff,   &d_gstart, &d_gmembers,
-              &d_best,      &d_sums,   &d_lexc,  &d_temp})
+             {&d_bodies,    &d_snap,   &d_bound, &d_scalars, &d_key,    &d_val,     &d_key2,
+              &d_val2,      &d_cstart, &d_cend,  &d_count,   &d_offset, &d_edges,   &d_deg,
+              &d_adj_start, &d_fill,   &d_adj,   &d_joined,  &d_wbound, &d_parent,  &d_root,
+              &d_size,      &d_isroot, &d_rsize, &d_gid,     &d_goff,   &d_gstart,  &d_gmembers,
+              &d_best,      &d_sums,   &d_lexc,  &d_temp,    &d_near,   &d_neartag, &d_order})
           b->release();
         if (host_scalars) cudaFreeHost(host_scalars);
         for (PinnedBuffer *b : {&host_changed, &host_index, &host_results, &host_control})
@@ -678,6 +896,8 @@ namespace Collide {
         d_control.release();
         d_part.release();
         d_boost.release();
+        d_budget.release();
+        host_budget.release();
         if (serial_exec) cudaGraphExecDestroy(serial_exec);
         for (DeviceBuffer *b :
              {&d_ax, &d_av, &d_af, &d_arad, &d_amass, &d_atlast, &d_atype, &d_aid})
@@ -702,8 +922,10 @@ namespace Collide {
       // Pinned: what comes back, run()'s bodies that had events with their indices, or
       // run_atoms()'s results.
       PinnedBuffer host_changed, host_index, host_results, host_control;
-      DeviceBuffer d_control, d_part;           // order serial: the loop's state, block minima
-      DeviceBuffer d_boost;                     // run_atoms(): step bounds raised by a failed check
+      DeviceBuffer d_control, d_part;    // order serial: the loop's state, block minima
+      DeviceBuffer d_boost;              // run_atoms(): step bounds raised by a failed check
+      DeviceBuffer d_budget;             // run_atoms(): the step budget's maxima (bits)
+      PinnedBuffer host_budget;
       bool step_missed = false;                 // the last step declined on a missed contact
       cudaGraphExec_t serial_exec = nullptr;    // order serial: the iterations, and what
       std::vector<char> serial_key;             // arguments they were captured with
@@ -758,7 +980,7 @@ namespace Collide {
       DeviceBuffer d_bodies, d_snap, d_bound, d_scalars, d_key, d_val, d_key2, d_val2, d_cstart,
           d_cend, d_count, d_offset, d_edges, d_deg, d_adj_start, d_fill, d_adj, d_joined, d_wbound,
           d_parent, d_root, d_size, d_isroot, d_rsize, d_gid, d_goff, d_gstart, d_gmembers, d_best,
-          d_sums, d_lexc, d_temp;
+          d_sums, d_lexc, d_temp, d_near, d_neartag, d_order;
 
       Scalars *scalars() const { return d_scalars.as<Scalars>(); }
 
@@ -766,21 +988,42 @@ namespace Collide {
          end of every phase of a step and the seconds are summed per phase; the sums per step
          go to stderr when the object is destroyed.  Off, mark() costs nothing. */
       struct Profile {
-        enum { upload, scan, search, choose, resolve, check, end, download, count };
+        enum {
+          upload,
+          scan,
+          search,
+          choose,
+          snapshot,
+          groups,
+          resolve,
+          check,
+          end,
+          download,
+          count
+        };
         bool on = std::getenv("HSGPU_RESIDENT_PROFILE") != nullptr;
         double sec[count] = {};
         long steps = 0, tries = 0, passes = 0, whole = 0;
         int locked = 0;
+        bool warm = false;    // the first step (allocations, page-locking) is not counted
+        void end_step()
+        {
+          if (warm) return;
+          warm = true;
+          for (double &x : sec) x = 0.0;
+          steps = tries = passes = whole = 0;
+        }
         Clock::time_point last;
         void print() const
         {
-          static const char *name[count] = {"upload",  "scan",  "search",   "choose windows",
-                                            "resolve", "check", "step end", "download"};
+          static const char *name[count] = {"upload",   "scan",    "search",  "choose windows",
+                                            "snapshot", "groups",  "resolve", "check",
+                                            "step end", "download"};
           if (steps == 0) return;
           double total = 0.0;
           for (double x : sec) total += x;
-          std::fprintf(stderr, "resident profile: %ld steps, %.4g ms per step", steps,
-                       1e3 * total / steps);
+          std::fprintf(stderr, "resident profile: %ld steps after the first, %.4g ms per step",
+                       steps, 1e3 * total / steps);
           for (int k = 0; k < count; ++k)
             std::fprintf(stderr, "; %s %.4g", name[k], 1e3 * sec[k] / steps);
           std::fprintf(stderr,
@@ -846,6 +1089,9 @@ namespace Collide {
       void verify_groups(int ngroups, const char *where);
       int components();
       void groups(int ngroups);
+      void resolve_groups(const GroupGraph &graph, int ngroups, double t_end, const Params &dp,
+                          long budget);
+      int resident_blocks = 0;    // resolve_kernel's blocks that fit on the device at once
     };
 
     /* The candidate pairs and their adjacency.  Declines where a periodic length holds fewer
@@ -906,13 +1152,16 @@ namespace Collide {
                  "cub::DeviceRadixSort");
       cuda_check(cudaMemsetAsync(d_cstart.ptr, 0, cells * sizeof(int), stream), "cudaMemset");
       cuda_check(cudaMemsetAsync(d_cend.ptr, 0, cells * sizeof(int), stream), "cudaMemset");
-      cell_range_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_key2.as<int>(), n, d_cstart.as<int>(),
-                                                          d_cend.as<int>());
+      d_near.reserve(n * sizeof(NearPoint), "cudaMalloc(search points)");
+      d_neartag.reserve(n * sizeof(NearTag), "cudaMalloc(search points)");
+      cell_range_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
+          d_key2.as<int>(), d_val2.as<int>(), d_bodies.as<Body>(), d_bound.as<double>(), n,
+          d_cstart.as<int>(), d_cend.as<int>(), d_near.as<NearPoint>(), d_neartag.as<NearTag>());
       launched("cell_range_kernel");
       cuda_check(cudaMemsetAsync(d_count.as<int>() + n, 0, sizeof(int), stream), "cudaMemset");
       // The count pass also finds overlaps.
       pair_kernel<false><<<nblocks(n), BLOCK, 0, stream>>>(
-          d_bodies.as<Body>(), d_bound.as<double>(), n, g, d_key2.as<int>(), d_val2.as<int>(),
+          d_near.as<NearPoint>(), d_neartag.as<NearTag>(), n, g, d_key2.as<int>(), d_val2.as<int>(),
           d_cstart.as<int>(), d_cend.as<int>(), d_count.as<int>(), nullptr, nullptr, tol,
           scalars());
       launched("pair_kernel (count)");
@@ -926,7 +1175,7 @@ namespace Collide {
       candidates = ne;
       d_edges.reserve((size_t) ne * sizeof(Edge) + 1, "cudaMalloc(candidate pairs)");
       pair_kernel<true><<<nblocks(n), BLOCK, 0, stream>>>(
-          d_bodies.as<Body>(), d_bound.as<double>(), n, g, d_key2.as<int>(), d_val2.as<int>(),
+          d_near.as<NearPoint>(), d_neartag.as<NearTag>(), n, g, d_key2.as<int>(), d_val2.as<int>(),
           d_cstart.as<int>(), d_cend.as<int>(), nullptr, d_offset.as<int>(), d_edges.as<Edge>(),
           tol, scalars());
       launched("pair_kernel (fill)");
@@ -987,6 +1236,49 @@ namespace Collide {
           d_root.as<int>(), d_gid.as<int>(), d_goff.as<int>(), n, ngroups, d_gstart.as<int>(),
           d_fill.as<int>(), d_gmembers.as<int>());
       launched("members_kernel");
+    }
+
+    /* The groups of the last groups() resolved up to t_end: those of two or more bodies by
+       warps (as many as fit on the device, each taking the next group), the single bodies by
+       threads; their tallies into d_sums, in the order of d_order (a partition of the groups,
+       the larger ones first). */
+    void CudaResidentStep::resolve_groups(const GroupGraph &graph, int ngroups, double t_end,
+                                          const Params &dp, long budget)
+    {
+      d_order.reserve((size_t) ngroups * sizeof(int) + 8, "cudaMalloc(group order)");
+      size_t bytes = 0;
+      const thrust::counting_iterator<int> ids(0);
+      // Tuning aid: HSGPU_RESIDENT_SMALL=n, the largest group resolved by one thread.
+      static const int small = std::getenv("HSGPU_RESIDENT_SMALL")
+                                   ? std::atoi(std::getenv("HSGPU_RESIDENT_SMALL"))
+                                   : SMALL_GROUP;
+      const IsLarge multi{d_gstart.as<int>(), small};
+      cuda_check(cub::DevicePartition::If(nullptr, bytes, ids, d_order.as<int>(),
+                                          &scalars()->nmulti, ngroups, multi, stream),
+                 "cub::DevicePartition");
+      d_temp.reserve(bytes + 16, "cudaMalloc(partition scratch)");
+      cuda_check(cub::DevicePartition::If(d_temp.ptr, bytes, ids, d_order.as<int>(),
+                                          &scalars()->nmulti, ngroups, multi, stream),
+                 "cub::DevicePartition");
+      zero(&scalars()->next_group);
+      if (resident_blocks == 0) {
+        int per_sm = 0, sms = 0;
+        cuda_check(
+            cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, resolve_kernel, GROUP_BLOCK, 0),
+            "cudaOccupancyMaxActiveBlocksPerMultiprocessor");
+        cuda_check(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device),
+                   "cudaDeviceGetAttribute");
+        resident_blocks = std::max(1, per_sm * sms);
+      }
+      const int warp_blocks = std::min(resident_blocks, nblocks(32L * ngroups, GROUP_BLOCK));
+      resolve_kernel<<<warp_blocks, GROUP_BLOCK, 0, stream>>>(
+          graph, d_gstart.as<int>(), d_gmembers.as<int>(), d_order.as<int>(), t_end, dp, budget,
+          scalars(), d_sums.as<WinSum>());
+      launched("resolve_kernel");
+      resolve_single_kernel<<<std::min(nblocks(ngroups), 16 * resident_blocks), BLOCK, 0, stream>>>(
+          graph, d_gstart.as<int>(), d_gmembers.as<int>(), d_order.as<int>(), ngroups, t_end, dp,
+          budget, scalars(), d_sums.as<WinSum>());
+      launched("resolve_single_kernel");
     }
 
     /* Debugging aid (HSGPU_RESIDENT_VERIFY=1): the groups on the host, checked against the
@@ -1056,7 +1348,7 @@ namespace Collide {
       Params dp = p;
       dp.epair = d_epair;
 
-      scan_bodies_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
+      scan_bodies_kernel<<<nblocks(n, TILE), TILE, 0, stream>>>(
           d_bodies.as<Body>(), d_bound.as<double>(), n, p.walls, tol, scalars());
       launched("scan_bodies_kernel");
       const Scalars sc = download_scalars();
@@ -1079,7 +1371,17 @@ namespace Collide {
       const WindowChooser chooser_at_start = chooser;
       const double dt = p.dt;
       const double speed_floor = s.floor_fraction * std::sqrt(vmax2);
-      const long target = WindowChooser::target(s, n);
+      // Tuning aid: HSGPU_RESIDENT_TARGET=n sets the largest group the windows aim at.
+      static const long target_env = std::getenv("HSGPU_RESIDENT_TARGET")
+                                         ? std::atol(std::getenv("HSGPU_RESIDENT_TARGET"))
+                                         : 0;
+      // The device's own default (the windows never change a result bit): largest groups of
+      // max(256, n / 1024) bodies, smaller than the host's max(256, n / 128), as the device
+      // resolves many more groups at once (measured: 256 ... 1024 within 1% at N = 1e6, 7%
+      // faster than the host's default).
+      const long target = target_env > 0       ? target_env
+                          : s.target_group > 0 ? s.target_group
+                                               : std::max(256L, (long) n / 1024);
       const GroupGraph graph{d_bodies.as<Body>(), d_edges.as<Edge>(), d_adj_start.as<int>(),
                              d_adj.as<int>(),     d_best.as<Event>(), d_joined.as<unsigned char>()};
       WindowStats &stats = report.stats;
@@ -1102,9 +1404,9 @@ namespace Collide {
         long largest;
         int ngroups = 0;
         auto try_window = [&](double t1) -> long {
-          window_start_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_bodies.as<Body>(), n, t0, t1 - t0,
-                                                                s.bound_factor, speed_floor,
-                                                                d_wbound.as<double>());
+          window_start_kernel<<<nblocks(n, TILE), TILE, 0, stream>>>(
+              d_bodies.as<Body>(), n, t0, t1 - t0, s.bound_factor, speed_floor,
+              d_wbound.as<double>());
           launched("window_start_kernel");
           if (ne > 0) {
             join_kernel<<<nblocks(ne), BLOCK, 0, stream>>>(d_bodies.as<Body>(), d_edges.as<Edge>(),
@@ -1122,16 +1424,15 @@ namespace Collide {
         cuda_check(cudaMemcpyAsync(d_snap.ptr, d_bodies.ptr, n * sizeof(Body),
                                    cudaMemcpyDeviceToDevice, stream),
                    "cudaMemcpy(snapshot)");
+        mark(Profile::snapshot);
         const long budget = p.maxevents - total.events;
         WinSum win;
         static const bool verify = std::getenv("HSGPU_RESIDENT_VERIFY") != nullptr;
         while (true) {
           groups(ngroups);
           if (verify) verify_groups(ngroups, "window");
-          resolve_kernel<<<nblocks(32L * ngroups, GROUP_BLOCK), GROUP_BLOCK, 0, stream>>>(
-              graph, d_gstart.as<int>(), d_gmembers.as<int>(), ngroups, t1, dp, budget,
-              d_sums.as<WinSum>());
-          launched("resolve_kernel");
+          mark(Profile::groups);
+          resolve_groups(graph, ngroups, t1, dp, budget);
           ++prof.passes;
           mark(Profile::resolve);
           size_t bytes = 0;
@@ -1144,8 +1445,8 @@ namespace Collide {
                                                &scalars()->win, ngroups, WinSumAdd(), zero_sum,
                                                stream),
                      "cub::DeviceReduce");
-          excursion_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_bodies.as<Body>(), n, t1,
-                                                             d_lexc.as<double>());
+          excursion_kernel<<<nblocks(n, TILE), TILE, 0, stream>>>(d_bodies.as<Body>(), n, t1,
+                                                                  d_lexc.as<double>());
           launched("excursion_kernel");
           zero(&scalars()->missed);
           if (ne > 0) {
@@ -1190,8 +1491,8 @@ namespace Collide {
       zero(&scalars()->excursion);
       zero(&scalars()->maxexc);
       zero(&scalars()->missed_step);
-      end_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_bodies.as<Body>(), n, dt, d_bound.as<double>(),
-                                                   d_lexc.as<double>(), scalars());
+      end_kernel<<<nblocks(n, TILE), TILE, 0, stream>>>(
+          d_bodies.as<Body>(), n, dt, d_bound.as<double>(), d_lexc.as<double>(), scalars());
       launched("end_kernel");
       const Scalars &es = download_scalars();
       if (es.excursion > 0) {
@@ -1204,9 +1505,9 @@ namespace Collide {
           return false;
         }
         step_check_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
-            d_bodies.as<Body>(), d_bound.as<double>(), d_lexc.as<double>(), n, grid,
-            d_key2.as<int>(), d_val2.as<int>(), d_cstart.as<int>(), d_cend.as<int>(), maxexc, rmax,
-            tol, scalars());
+            d_near.as<NearPoint>(), d_neartag.as<NearTag>(), d_bound.as<double>(),
+            d_lexc.as<double>(), n, grid, d_key2.as<int>(), d_val2.as<int>(), d_cstart.as<int>(),
+            d_cend.as<int>(), maxexc, rmax, tol, scalars());
         launched("step_check_kernel");
         if (download_scalars().missed_step) {
           decline(ResidentOutcome::excursion);
@@ -1228,8 +1529,8 @@ namespace Collide {
       constexpr int SERIAL_ITERATIONS = 64;
       const double dt = dp.dt;
       // One window, the step: start points and window excursions as the host's serial order.
-      window_start_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_bodies.as<Body>(), n, 0.0, dt, 1.0,
-                                                            0.0, d_wbound.as<double>());
+      window_start_kernel<<<nblocks(n, TILE), TILE, 0, stream>>>(d_bodies.as<Body>(), n, 0.0, dt,
+                                                                 1.0, 0.0, d_wbound.as<double>());
       launched("window_start_kernel");
       const GroupGraph graph{d_bodies.as<Body>(), d_edges.as<Edge>(), d_adj_start.as<int>(),
                              d_adj.as<int>(),     d_best.as<Event>(), nullptr};
@@ -1339,6 +1640,7 @@ namespace Collide {
       report.changed = changed;
       report.t_download = seconds_since(t_down);
       mark(Profile::download);
+      prof.end_step();
       tally.add(total);
       report.t_resolve = seconds_since(t_windows);
     }
@@ -1376,8 +1678,24 @@ namespace Collide {
         up(arrays[k].d, arrays[k].h, arrays[k].bytes);
         if (locked[k].p) ++prof.locked;
       }
+      // The step budget (the host's step_budget() on the device), read back below.
+      d_budget.reserve(4 * sizeof(unsigned long long), "cudaMalloc(budget)");
+      host_budget.reserve(4 * sizeof(unsigned long long), "cudaMallocHost(budget)");
+      cuda_check(cudaMemsetAsync(d_budget.ptr, 0, 3 * sizeof(unsigned long long), stream),
+                 "cudaMemset");
+      budget_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_av.as<double>(), d_af.as<double>(),
+                                                      d_amass.as<double>(), d_arad.as<double>(), n,
+                                                      a.ftm2v, d_budget.as<unsigned long long>());
+      launched("budget_kernel");
+      fetch(d_budget, host_budget, 3 * sizeof(unsigned long long), "cudaMemcpy(budget)");
       cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(atoms)");
       report.t_upload = seconds_since(t_start);
+      {
+        const unsigned long long *bits = host_budget.as<unsigned long long>();
+        std::memcpy(&report.vmax2, &bits[0], sizeof(double));
+        std::memcpy(&report.amax, &bits[1], sizeof(double));
+        std::memcpy(&report.rmax, &bits[2], sizeof(double));
+      }
       prof.last = t_start;
       mark(Profile::upload);
       // A step whose check fails (a contact that no candidate covered) is done again here,
@@ -1389,16 +1707,18 @@ namespace Collide {
       Tally total;
       for (int attempt = 0;; ++attempt) {
         if (a.id_bytes == 8)
-          build_kernel<long long><<<nblocks(n), BLOCK, 0, stream>>>(
+          build_kernel<long long><<<nblocks(n, BUILD_BLOCK), BUILD_BLOCK, 0, stream>>>(
               d_ax.as<double>(), d_av.as<double>(), d_af.as<double>(), d_arad.as<double>(),
               d_amass.as<double>(), d_atlast.as<double>(), d_atype.as<int>(), d_aid.as<long long>(),
-              d_boost.as<double>(), n, p.dt, a.ftm2v, a.bound_floor, a.reach, d_bodies.as<Body>(),
+              d_boost.as<double>(), n, p.dt, a.ftm2v, a.bound_floor,
+              d_budget.as<unsigned long long>(), a.reach, d_bodies.as<Body>(),
               d_bound.as<double>());
         else
-          build_kernel<int><<<nblocks(n), BLOCK, 0, stream>>>(
+          build_kernel<int><<<nblocks(n, BUILD_BLOCK), BUILD_BLOCK, 0, stream>>>(
               d_ax.as<double>(), d_av.as<double>(), d_af.as<double>(), d_arad.as<double>(),
               d_amass.as<double>(), d_atlast.as<double>(), d_atype.as<int>(), d_aid.as<int>(),
-              d_boost.as<double>(), n, p.dt, a.ftm2v, a.bound_floor, a.reach, d_bodies.as<Body>(),
+              d_boost.as<double>(), n, p.dt, a.ftm2v, a.bound_floor,
+              d_budget.as<unsigned long long>(), a.reach, d_bodies.as<Body>(),
               d_bound.as<double>());
         launched("build_kernel");
         total = Tally();
@@ -1421,24 +1741,30 @@ namespace Collide {
       atom_results_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
           d_bodies.as<Body>(), n, p.dt, d_offset.as<int>(), d_sums.as<AtomResult>());
       launched("atom_results_kernel");
+      tlast_end_kernel<<<nblocks(n, TILE), TILE, 0, stream>>>(d_bodies.as<Body>(), n, p.dt, a.never,
+                                                              d_atlast.as<double>());
+      launched("tlast_end_kernel");
       report.changed = changed;
       // Many atoms changed and the arrays are page-locked: writing the changed atoms into the
       // device copies of x, v and tlast and copying those back whole costs less than the
       // host's scattered writes (which touch most cache lines of the arrays anyway).  The
       // other atoms get their own bytes back.
       static const bool scatter = std::getenv("HSGPU_RESIDENT_SCATTER") != nullptr;
-      if (!scatter && changed > n / 32 && locked[0].p && locked[1].p && locked[3].p) {
+      const bool whole = !scatter && changed > n / 32 && locked[0].p && locked[1].p;
+      if (whole) {
         ++prof.whole;
         atom_write_kernel<<<nblocks(changed), BLOCK, 0, stream>>>(
-            d_sums.as<AtomResult>(), changed, d_ax.as<double>(), d_av.as<double>(),
-            d_atlast.as<double>());
+            d_sums.as<AtomResult>(), changed, d_ax.as<double>(), d_av.as<double>());
         launched("atom_write_kernel");
         cuda_check(cudaMemcpyAsync(a.x, d_ax.ptr, n3, cudaMemcpyDeviceToHost, stream),
                    "cudaMemcpy(x)");
         cuda_check(cudaMemcpyAsync(a.v, d_av.ptr, n3, cudaMemcpyDeviceToHost, stream),
                    "cudaMemcpy(v)");
-        cuda_check(cudaMemcpyAsync(a.tlast, d_atlast.ptr, n1, cudaMemcpyDeviceToHost, stream),
-                   "cudaMemcpy(tlast)");
+      }
+      // Every atom's time of last collision comes back whole (8 bytes per atom).
+      cuda_check(cudaMemcpyAsync(a.tlast, d_atlast.ptr, n1, cudaMemcpyDeviceToHost, stream),
+                 "cudaMemcpy(tlast)");
+      if (whole) {
         cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(atoms back)");
       } else {
         // Room for a quarter of the atoms at once, so that the buffer rarely grows.
@@ -1452,11 +1778,11 @@ namespace Collide {
             a.x[3 * r.index + d] = r.x[d];
             a.v[3 * r.index + d] = r.v[d];
           }
-          a.tlast[r.index] = r.tlast;
         }
       }
       report.t_download = seconds_since(t_down);
       mark(Profile::download);
+      prof.end_step();
       tally.add(total);
       report.t_resolve = seconds_since(windows_start);
     }

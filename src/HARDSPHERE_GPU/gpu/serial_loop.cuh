@@ -38,7 +38,7 @@ namespace Collide {
 
     // Launch: one thread per body (n), any block size.  best[b] = body b's earliest event over
     // all its candidate pairs and the walls.
-    __global__ void init_kernel(GroupGraph g, Params p, int n)
+    __global__ void init_kernel(GroupGraph g, const __grid_constant__ Params p, int n)
     {
       const int b = blockIdx.x * blockDim.x + threadIdx.x;
       if (b >= n) return;
@@ -63,8 +63,9 @@ namespace Collide {
     // Launch: one block of 32 threads.  The earliest of part[0 .. nparts): carried out when
     // before t_end and fewer than budget events were carried out (ctl->tally.capped set when
     // the budget stops one that is due); ctl->done set when no event is carried out.
-    __global__ void event_kernel(GroupGraph g, Params p, const WarpLoop::Candidate *part,
-                                 int nparts, double t_end, long budget, Control *ctl)
+    __global__ void event_kernel(GroupGraph g, const __grid_constant__ Params p,
+                                 const WarpLoop::Candidate *part, int nparts, double t_end,
+                                 long budget, Control *ctl)
     {
       if (ctl->done) return;
       const int lane = threadIdx.x & 31;
