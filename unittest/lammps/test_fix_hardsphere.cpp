@@ -422,14 +422,16 @@ TEST(FixHardSphere, PressureAtTheStartOfARunIsTheLastSteps)
 TEST(FixHardSphere, PourIntoAGroupEmptyAtTheStart)
 {
   Lammps lmp;
-  lmp.commands({"units lj", "atom_style sphere", "atom_modify map array", "boundary p p f",
+  // map hash: LAMMPS 29 Sep 2021's fix pour crashes in Atom::map_set() with 'map array' in a
+  // box created empty (also without this fix).
+  lmp.commands({"units lj", "atom_style sphere", "atom_modify map hash", "boundary p p f",
                 "region box block 0 10 0 10 0 20", "create_box 1 box",
                 "neigh_modify every 1 delay 0 check yes", "comm_modify vel yes",
                 "region slab block 1 9 1 9 14 19",
+                "fix g all gravity 1.0 vector 0 0 -1",    // fix pour needs it first
                 "fix ins all pour 200 1 4767548 region slab diam one 1.0 vol 0.3 50",
-                "fix 1 all nve/sphere", "fix g all gravity 1.0 vector 0 0 -1",
-                "fix hs all hardsphere wall zlo 0.5 restitution 0.5", "thermo_modify norm no",
-                "timestep 0.005", "run 2000"});
+                "fix 1 all nve/sphere", "fix hs all hardsphere wall zlo 0.5 restitution 0.5",
+                "thermo_modify norm no", "timestep 0.005", "run 2000"});
   const long n = lmp.natoms();
   const double coll = lmp.fix_vector("hs", 1), walls = lmp.fix_vector("hs", 2);
   const auto x = lmp.gather("x", 3);

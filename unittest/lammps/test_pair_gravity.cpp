@@ -305,7 +305,7 @@ TEST(PairGravityErrors, ComputePairLocalIsRefused)
   auto setup = BOX;
   setup.insert(setup.end(),
                {"create_atoms 1 single 0.6 0.5 0.5", "pair_style gravity 1 0.1", "pair_coeff * *"});
-  for (const char *values : {"dist", "eng", "dist dx"}) {
+  for (const char *values : {"dist", "eng", "dist eng"}) {
     auto with = setup;
     with.push_back(std::string("compute pl all pair/local ") + values);
     EXPECT_THAT(error_for(with, "run 0"),
