@@ -288,8 +288,9 @@ void FixHardSphere::init()
     error->all(FLERR, "Fix hardsphere: the number of atom types changed; define the fix again");
   // Collisions are found forward in time within each step, and their virial is the impulses
   // divided by the timestep: a zero, negative or non-finite timestep has no meaning for them.
-  // (Minimization does not invoke the fix.)
-  if (update->whichflag != 2 && !(update->dt > 0.0 && std::isfinite(update->dt)))
+  // Checked for runs only (minimization does not invoke the fix; write_restart and write_data
+  // call init() too).
+  if (update->whichflag == 1 && !(update->dt > 0.0 && std::isfinite(update->dt)))
     error->all(FLERR,
                "Fix hardsphere requires a positive timestep, got {} (collisions are resolved "
                "forward in time within each step, and their virial is the impulses divided by "
