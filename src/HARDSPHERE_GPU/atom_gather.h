@@ -37,6 +37,9 @@ class AtomGather : protected Pointers {
   HSGPU::Gravity::Box box;     // orthogonal box with its periodic flags
   bool changed_masses;         // true when masses differ from the previous gather
 
+  // In atom-ID order: the ID of the atom at place s of x and mass.
+  tagint id_at(long s) const { return direct ? (tagint) (s + 1) : (tagint) tags_sorted[s]; }
+
  private:
   const char *style;
   std::vector<double> sendbuf, recvbuf;

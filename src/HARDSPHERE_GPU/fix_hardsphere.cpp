@@ -27,7 +27,9 @@
 #include "domain.h"
 #include "error.h"
 #include "force.h"
+#include "group.h"
 #include "memory.h"
+#include "modify.h"
 #include "neighbor.h"
 #include "pair.h"
 #include "update.h"
@@ -78,6 +80,9 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
 {
   for (double &o : ovl) o = 0.0;
   ovl_depth = 0.0;
+  // The collision virial of the last step; kept across runs and in restart files, so that
+  // the first thermo line of a run shows the full pressure.
+  for (double &w : virial) w = 0.0;
   vector_flag = 1;
   size_vector = NVECTOR;
   global_freq = 1;
@@ -282,6 +287,17 @@ void FixHardSphere::init()
                       "the neighbor list covering every step's moves)");
   if ((bigint) epair.size() != (bigint) (atom->ntypes + 1) * (atom->ntypes + 1))
     error->all(FLERR, "Fix hardsphere: the number of atom types changed; define the fix again");
+  // Collisions are found forward in time within each step, and their virial is the impulses
+  // divided by the timestep: a zero, negative or non-finite timestep has no meaning for them.
+  // Checked for runs only (minimization does not invoke the fix; write_restart and write_data
+  // call init() too).
+  if (update->whichflag == 1 && !(update->dt > 0.0 && std::isfinite(update->dt)))
+    error->all(FLERR,
+               "Fix hardsphere requires a positive timestep, got {} (collisions are resolved "
+               "forward in time within each step, and their virial is the impulses divided by "
+               "the timestep)",
+               update->dt);
+  check_other_fixes();
 
   for (int f = 0; f < HSGPU::Collide::NFACES; ++f) {
     if (!walls.on[f]) continue;
@@ -303,10 +319,14 @@ void FixHardSphere::init()
       if (!(atom->rmass[i] > 0.0)) bad = 1;
     }
   MPI_Allreduce(&rlocal, &rmax, 1, MPI_DOUBLE, MPI_MAX, world);
+  rmax = std::max(rmax, inserted_radius());
   int anybad = 0;
   MPI_Allreduce(&bad, &anybad, 1, MPI_INT, MPI_MAX, world);
   if (anybad) error->all(FLERR, "Fix hardsphere requires positive masses (rmass) for its atoms");
-  if (!(rmax > 0.0)) error->all(FLERR, "Fix hardsphere: no atom of the group has a radius > 0");
+  // An empty group is allowed: the fix has nothing to do until atoms join it (atoms inserted
+  // by fix pour or fix deposit are covered by their largest radius, above).
+  if (!(rmax > 0.0) && group->count(igroup) > 0)
+    error->all(FLERR, "Fix hardsphere: no atom of group {} has a radius > 0", group->names[igroup]);
 
   reach = reach_user > 0.0 ? reach_user : rmax;
   list_cut = 2.0 * rmax + 2.0 * reach;
@@ -336,6 +356,50 @@ void FixHardSphere::init()
   maxevents = maxevents_user > 0 ? maxevents_user : 1000 + 100 * atom->natoms;
   wsettings.nwindows = nwindows_user;
   setup_backend();
+}
+
+/* Two fix hardsphere acting on one atom would each resolve its collisions with its own
+   partners and then find the other's results overlapping: stop with an error that names the
+   fixes and the atom (the lowest ID they share).  Fixes on disjoint groups are allowed (their
+   atoms pass through each other). */
+void FixHardSphere::check_other_fixes()
+{
+  for (int f = 0; f < modify->nfix; ++f) {
+    const Fix *other = modify->fix[f];
+    if (other == this || strcmp(other->style, style) != 0) continue;
+    const int both = groupbit | other->groupbit;
+    tagint shared = MAXTAGINT, least = MAXTAGINT;
+    for (int i = 0; i < atom->nlocal; ++i)
+      if ((atom->mask[i] & both) == both) shared = std::min(shared, atom->tag[i]);
+    MPI_Allreduce(&shared, &least, 1, MPI_LMP_TAGINT, MPI_MIN, world);
+    if (least != MAXTAGINT || other->igroup == igroup)
+      error->all(FLERR,
+                 "Fix hardsphere: fixes {} (group {}) and {} (group {}) both act on {}; use one "
+                 "fix hardsphere for all the spheres that collide with each other",
+                 id, group->names[igroup], other->id, group->names[other->igroup],
+                 least != MAXTAGINT ? fmt::format("atom {}", least)
+                                    : std::string("the same group"));
+  }
+}
+
+/* The largest radius of the atoms that fix pour or fix deposit will insert into the group
+   during the run (their extract("radius"), as LAMMPS's granular pair styles use it), 0 when
+   there is no such fix. */
+double FixHardSphere::inserted_radius()
+{
+  double r = 0.0;
+  for (int f = 0; f < modify->nfix; ++f) {
+    Fix *other = modify->fix[f];
+    if (!utils::strmatch(other->style, "^pour") && !utils::strmatch(other->style, "^deposit"))
+      continue;
+    if (!(groupbit & (1 | other->groupbit))) continue;    // its atoms are not in the group
+    for (int t = 1; t <= atom->ntypes; ++t) {
+      int itype = t;
+      const auto *rad = (const double *) other->extract("radius", itype);
+      if (rad) r = std::max(r, *rad);
+    }
+  }
+  return r;
 }
 
 /* The collision backend: CUDA on this rank's device with 'gpu yes' (the device policy of
@@ -420,13 +484,18 @@ double FixHardSphere::compute_vector(int n)
 
 /* --- restart ---------------------------------------------------------------------------- */
 
-/* Global restart data: -RESTART_FORMAT, the count of values, the values (totals only; the
-   last step's figures and the timers start again).  Files written before the format marker
-   hold 7 values: n_total n_wall ke_total max_events events_total n_redo n_step. */
+/* Global restart data: -RESTART_FORMAT, the count of values, the values (the totals, the
+   last step's pair collisions and collision virial; the other figures of the last step and the
+   timers start again).  Files written before the format marker hold 7 values: n_total n_wall
+   ke_total max_events events_total n_redo n_step; older files of this format 9 or 11 (no
+   virial).  Readers take the values they know and leave the rest. */
 void FixHardSphere::write_restart(FILE *fp)
 {
+  // Every rank holds its share of the virial (LAMMPS sums them): the file holds the sum.
+  double vsum[6];
+  MPI_Allreduce(virial, vsum, 6, MPI_DOUBLE, MPI_SUM, world);
   const double state[] = {-(double) RESTART_FORMAT,
-                          11.0,
+                          17.0,
                           n_total,
                           n_wall,
                           ke_total,
@@ -437,7 +506,13 @@ void FixHardSphere::write_restart(FILE *fp)
                           n_push,
                           n_repair,
                           n_resident,
-                          n_declined};
+                          n_declined,
+                          vsum[0],
+                          vsum[1],
+                          vsum[2],
+                          vsum[3],
+                          vsum[4],
+                          vsum[5]};
   const int count = (int) (sizeof(state) / sizeof(double));
   if (comm->me == 0) {
     const int size = (int) sizeof(state);
@@ -468,6 +543,8 @@ void FixHardSphere::restart(char *buf)
     n_resident = v[9];
     n_declined = v[10];
   }
+  // The last step's collision virial, on rank 0 (the ranks' shares are summed by LAMMPS).
+  for (int k = 0; k < 6; ++k) virial[k] = (count > 16 && comm->me == 0) ? v[11 + k] : 0.0;
 }
 
 /* --- per-atom state: time of the last collision ----------------------------------------- */

@@ -157,6 +157,8 @@ class FixHardSphere : public Fix {
   HSGPU::Collide::UnionFind uf;
 
   void parse(int narg, char **arg);
+  void check_other_fixes();
+  double inserted_radius();
   double current_tc() const;
   HSGPU::Collide::Params step_params() const;
   void forward_state(double drift_dt);

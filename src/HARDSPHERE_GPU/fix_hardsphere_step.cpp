@@ -734,8 +734,9 @@ void FixHardSphere::setup(int)
 {
   // Commands between runs may have moved the atom arrays the device step keeps page-locked.
   if (resident) resident->forget_host_arrays();
-  for (int k = 0; k < 6; ++k) virial[k] = 0.0;
-  n_step = 0.0;
+  // The virial and the collision count are the last step's (or the restart file's): the
+  // run's first thermo output shows the collisions' share of the pressure, as every later
+  // one does.
   run_sum = RunSummary();
   run_sum.t_search = -t_search;
   run_sum.t_resolve = -t_resolve;

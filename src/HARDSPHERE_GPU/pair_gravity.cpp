@@ -7,10 +7,13 @@
 #include "atom.h"
 #include "atom_gather.h"
 #include "comm.h"
+#include "compute.h"
 #include "domain.h"
 #include "error.h"
 #include "force.h"
 #include "memory.h"
+#include "modify.h"
+#include "update.h"
 #include "utils.h"
 
 #include "core/gravity_pair.h"
@@ -18,6 +21,9 @@
 #include "gpu/gravity_engine.h"
 #include "gpu_device_choice.h"
 
+#include <algorithm>
+#include <cfloat>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -83,9 +89,19 @@ void PairGravity::settings(int narg, char **arg)
                narg);
   gravity_g = utils::numeric(FLERR, arg[0], false, lmp);
   softening_eps = utils::numeric(FLERR, arg[1], false, lmp);
-  if (gravity_g <= 0.0) error->all(FLERR, "Illegal pair_style gravity command: G must be > 0");
-  if (softening_eps < 0.0)
-    error->all(FLERR, "Illegal pair_style gravity command: eps must be >= 0");
+  if (!(gravity_g > 0.0) || !std::isfinite(gravity_g))
+    error->all(FLERR, "Illegal pair_style gravity command: G must be > 0 and finite, got {}",
+               arg[0]);
+  if (!(softening_eps >= 0.0) || !std::isfinite(softening_eps))
+    error->all(FLERR, "Illegal pair_style gravity command: eps must be >= 0 and finite, got {}",
+               arg[1]);
+  // The sums use eps^2: one that underflows to 0 would silently mean no softening.
+  if (softening_eps > 0.0 && !std::isnormal(softening_eps * softening_eps))
+    error->all(FLERR,
+               "Illegal pair_style gravity command: eps {} has a square that {} in double "
+               "precision; use 0 for no softening, or eps between {:.4g} and {:.4g}",
+               arg[1], softening_eps < 1.0 ? "underflows" : "overflows", std::sqrt(DBL_MIN),
+               std::sqrt(DBL_MAX));
   cutoff = 0.0;
   gpu_requested = 0;
   precision = (int) HSGPU::GPU::Precision::Mixed;
@@ -96,8 +112,19 @@ void PairGravity::settings(int narg, char **arg)
       if (iarg + 2 > narg)
         error->all(FLERR, "Illegal pair_style gravity command: cutoff needs a value");
       cutoff = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
-      if (cutoff <= 0.0)
-        error->all(FLERR, "Illegal pair_style gravity command: cutoff must be > 0");
+      if (!(cutoff > 0.0) || !std::isfinite(cutoff))
+        error->all(FLERR,
+                   "Illegal pair_style gravity command: cutoff must be > 0 and finite, "
+                   "got {}",
+                   arg[iarg + 1]);
+      // The sums compare r^2 with rc^2, and rc^2 = 0 means no cutoff: a cutoff whose square
+      // underflows would silently become none.
+      if (!std::isnormal(cutoff * cutoff))
+        error->all(FLERR,
+                   "Illegal pair_style gravity command: cutoff {} has a square that {} in "
+                   "double precision; give a cutoff between {:.4g} and {:.4g}, or none",
+                   arg[iarg + 1], cutoff < 1.0 ? "underflows" : "overflows", std::sqrt(DBL_MIN),
+                   std::sqrt(DBL_MAX));
       iarg += 2;
     } else if (strcmp(arg[iarg], "gpu") == 0) {
       if (iarg + 2 > narg)
@@ -167,7 +194,16 @@ void PairGravity::init_style()
       if (!atom->mass_setflag[t] || !(atom->mass[t] > 0.0))
         error->all(FLERR, "Pair style gravity requires a positive mass for atom type {}", t);
   }
-  // No neighbor list: every rank sums over the gathered copy of all atoms.
+  // No neighbor list: every rank sums over the gathered copy of all atoms.  compute
+  // pair/local walks a neighbor list, which holds none of this style's pairs (its range is
+  // 1e-10), and there is no single(): it would list nothing, silently.
+  if (force->pair == this)
+    for (int c = 0; c < modify->ncompute; ++c)
+      if (utils::strmatch(modify->compute[c]->style, "^pair/local"))
+        error->all(FLERR,
+                   "Pair style gravity does not support compute pair/local (compute {}): it "
+                   "sums over all pairs without a neighbor list and has no single() function",
+                   modify->compute[c]->id);
   setup_gpu();
 }
 
@@ -230,6 +266,7 @@ void PairGravity::compute(int eflag, int vflag)
     compute_gpu(nlocal);
   else
     compute_cpu(nlocal);
+  check_forces(nlocal);
   tally(nlocal);
   if (timing) {
     const double t2 = MPI_Wtime();
@@ -313,6 +350,119 @@ void PairGravity::compute_gpu(int nlocal)
       for (int k = 0; k < 6; ++k) sums[i].v[k] = gpu_v[6 * i + k];
     }
   }
+}
+
+/* Collective: stops with an error that names the problem where the forces cannot be right.
+   A non-finite force: two atoms at one point without softening, or an overflow.  A force that
+   alone moves an atom by more than the box length in one step (along a periodic or fixed
+   direction, where LAMMPS would then lose the atom): G far too large for the masses and
+   distances, or the timestep far too long.  O(N) per step and one reduction of two values. */
+void PairGravity::check_forces(int nlocal)
+{
+  double **f = atom->f;
+  const double *rmass = atom->rmass, *pmass = atom->mass;
+  const int *type = atom->type;
+  const double dt = update->dt;
+  const bool dynamics = update->whichflag == 1 && dt > 0.0;
+  bool bounded[3];
+  for (int d = 0; d < 3; ++d)
+    bounded[d] = dynamics && (domain->boundary[d][0] <= 1 || domain->boundary[d][1] <= 1);
+  double loc[2] = {0.0, 0.0};    // any non-finite force, largest step / box length
+  int worst = -1, worst_dim = 0;
+  for (int i = 0; i < nlocal; ++i) {
+    if (!std::isfinite(f[i][0]) || !std::isfinite(f[i][1]) || !std::isfinite(f[i][2])) {
+      loc[0] = 1.0;
+      continue;
+    }
+    const double scale = 0.5 * dt * dt * force->ftm2v / (rmass ? rmass[i] : pmass[type[i]]);
+    for (int d = 0; d < 3; ++d) {
+      if (!bounded[d]) continue;
+      const double ratio = std::fabs(f[i][d]) * scale / domain->prd[d];
+      if (ratio > loc[1]) {
+        loc[1] = ratio;
+        worst = i;
+        worst_dim = d;
+      }
+    }
+  }
+  double glob[2];
+  MPI_Allreduce(loc, glob, 2, MPI_DOUBLE, MPI_MAX, world);
+  if (glob[0] > 0.0) report_nonfinite(nlocal);
+  if (!(glob[1] > 1.0)) return;
+
+  // The atom with the largest step: its owner sends what the message says.
+  struct {
+    double ratio;
+    int rank;
+  } in = {loc[1], comm->me}, out;
+  MPI_Allreduce(&in, &out, 1, MPI_DOUBLE_INT, MPI_MAXLOC, world);
+  double info[4] = {0.0, 0.0, 0.0, 0.0};    // ID, direction, |F_d|, step
+  if (comm->me == out.rank) {
+    info[0] = (double) atom->tag[worst];
+    info[1] = worst_dim;
+    info[2] = std::fabs(f[worst][worst_dim]);
+    info[3] = loc[1] * domain->prd[worst_dim];
+  }
+  MPI_Bcast(info, 4, MPI_DOUBLE, out.rank, world);
+  const int d = (int) info[1];
+  error->all(FLERR,
+             "Pair style gravity: the force on atom {} at step {} ({:.6g} along {}) moves it "
+             "{:.6g} in one timestep, more than the box length {:.6g}: atoms would be lost. G = "
+             "{:.6g} is far too large for these masses and distances, or the timestep {:.6g} far "
+             "too long{}",
+             (tagint) info[0], update->ntimestep, info[2], "xyz"[d], info[3], domain -> prd[d],
+             gravity_g, dt, softening_eps > 0.0 ? "" : " (or close atoms need eps > 0)");
+}
+
+/* Collective, after a non-finite force: stops with an error naming the atom with the lowest ID
+   whose force is not finite and its nearest atom (from an atom-ID-ordered gather, whatever
+   the path). */
+void PairGravity::report_nonfinite(int nlocal)
+{
+  double **f = atom->f;
+  tagint mine = MAXTAGINT, bad = MAXTAGINT;
+  for (int i = 0; i < nlocal; ++i)
+    if (!std::isfinite(f[i][0]) || !std::isfinite(f[i][1]) || !std::isfinite(f[i][2]))
+      mine = std::min(mine, atom->tag[i]);
+  MPI_Allreduce(&mine, &bad, 1, MPI_LMP_TAGINT, MPI_MIN, world);
+  gather->id_order = true;
+  gather->gather();
+  const long n = gather->ntotal;
+  const double *gx = gather->x.data();
+  const HSGPU::Gravity::Box &box = gather->box;
+  long sb = 0;
+  while (sb < n - 1 && gather->id_at(sb) != bad) ++sb;
+  long near = -1;
+  double r2min = 0.0;
+  for (long j = 0; j < n; ++j) {
+    if (j == sb) continue;
+    double r2 = 0.0;
+    for (int d = 0; d < 3; ++d) {
+      const double dd = HSGPU::Gravity::nearest_image(gx[3 * sb + d] - gx[3 * j + d], box.prd[d],
+                                                      box.periodic[d]);
+      r2 += dd * dd;
+    }
+    if (near < 0 || r2 < r2min) {
+      near = j;
+      r2min = r2;
+    }
+  }
+  if (near >= 0 && r2min == 0.0 && softening_eps == 0.0)
+    error->all(FLERR,
+               "Pair style gravity: atoms {} and {} are at the same position ({:.10g}, {:.10g}, "
+               "{:.10g}) at step {} with eps = 0 (no softening): their force and energy are "
+               "infinite. Use eps > 0, or move the atoms apart",
+               std::min(bad, gather->id_at(near)), std::max(bad, gather->id_at(near)), gx[3 * sb],
+               gx[3 * sb + 1], gx[3 * sb + 2], update->ntimestep);
+  if (near >= 0)
+    error->all(FLERR,
+               "Pair style gravity: the force on atom {} is not finite at step {}: its nearest "
+               "atom {} is {:.6g} away, G = {:.6g}, eps = {:.6g}; the pair terms overflow double "
+               "precision",
+               bad, update->ntimestep, gather->id_at(near), std::sqrt(r2min), gravity_g,
+               softening_eps);
+  error->all(FLERR, "Pair style gravity: the force on atom {} is not finite at step {}", bad,
+             update->ntimestep);
 }
 
 /* Energy and virial tallies, summed in atom order so that results are reproducible. */

@@ -72,6 +72,8 @@ class PairGravity : public Pair {
   void compute_gpu(int nlocal);
   void setup_gpu();
   void tally(int nlocal);
+  void check_forces(int nlocal);
+  void report_nonfinite(int nlocal);
 };
 
 }    // namespace LAMMPS_NS

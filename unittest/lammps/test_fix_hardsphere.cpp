@@ -369,6 +369,84 @@ TEST(FixHardSphere, RestartContinuationEqualsUninterruptedRun)
               max_abs_diff(xa, xb), max_abs_diff(va, vb), fa[1]);
 }
 
+// A dense fluid (packing fraction 0.4, elastic): the pressure at the first thermo output of a
+// run, and of a run continued from a restart file, is the last step's, collisions included
+// (they are most of it), not only its kinetic part.
+TEST(FixHardSphere, PressureAtTheStartOfARunIsTheLastSteps)
+{
+  const std::string file = "fix_hardsphere_press.restart";
+  const std::vector<std::string> fixes = {"fix 1 all nve/sphere",
+                                          "fix hs all hardsphere",
+                                          "compute pk all pressure thermo_temp ke",
+                                          "thermo_style custom step press c_pk f_hs[1]",
+                                          "thermo_modify norm no",
+                                          "timestep 0.005"};
+  double press = 0.0, kinetic = 0.0, last = 0.0;
+  {
+    Lammps lmp;
+    lmp.commands({"units lj", "atom_style sphere", "atom_modify map array", "boundary p p p",
+                  "lattice fcc 0.76", "region box block 0 5 0 5 0 5", "create_box 1 box",
+                  "create_atoms 1 box", "set type 1 diameter 1.0", "set type 1 mass 1.0",
+                  "velocity all create 1.0 4928459 loop geom",
+                  "neigh_modify every 1 delay 0 check yes"});
+    lmp.commands(fixes);
+    lmp.commands({"run 200"});
+    press = lmp.thermo("press");    // the last thermo output of the run
+    kinetic = lmp.compute_scalar("pk");
+    last = lmp.fix_vector("hs", 0);
+    std::printf("[ HS       ] fluid at packing fraction 0.4: pressure %.8g, kinetic part %.8g, "
+                "%.0f collisions in the last step\n",
+                press, kinetic, last);
+    EXPECT_GT(press, 3.0 * kinetic) << "the collisions should carry most of the pressure";
+    EXPECT_GT(last, 0.0);
+    lmp.commands({"run 0"});
+    EXPECT_EQ(lmp.thermo("press"), press) << "first thermo output of the next run";
+    EXPECT_EQ(lmp.fix_vector("hs", 0), last);
+    lmp.commands({"write_restart " + file, "run 20"});
+    EXPECT_NE(lmp.thermo("press"), press) << "a run goes on from there";
+  }
+  {
+    Lammps lmp;
+    lmp.commands({"read_restart " + file, "neigh_modify every 1 delay 0 check yes"});
+    lmp.commands(fixes);
+    lmp.commands({"run 0"});
+    EXPECT_EQ(lmp.thermo("press"), press) << "first thermo output after read_restart";
+    EXPECT_EQ(lmp.compute_scalar("pk"), kinetic);
+    EXPECT_EQ(lmp.fix_vector("hs", 0), last);
+  }
+  std::remove(file.c_str());
+}
+
+// Atoms inserted by fix pour into a group that is empty when the run starts: the fix covers
+// their radius from the start (fix pour's largest radius) and resolves their collisions.
+TEST(FixHardSphere, PourIntoAGroupEmptyAtTheStart)
+{
+  Lammps lmp;
+  // map hash: LAMMPS 29 Sep 2021's fix pour crashes in Atom::map_set() with 'map array' in a
+  // box created empty (also without this fix).
+  lmp.commands({"units lj", "atom_style sphere", "atom_modify map hash", "boundary p p f",
+                "region box block 0 10 0 10 0 20", "create_box 1 box",
+                "neigh_modify every 1 delay 0 check yes", "comm_modify vel yes",
+                "region slab block 1 9 1 9 14 19",
+                "fix g all gravity 1.0 vector 0 0 -1",    // fix pour needs it first
+                "fix ins all pour 200 1 4767548 region slab diam one 1.0 vol 0.3 50",
+                "fix 1 all nve/sphere", "fix hs all hardsphere wall zlo 0.5 restitution 0.5",
+                "thermo_modify norm no", "timestep 0.005", "run 2000"});
+  const long n = lmp.natoms();
+  const double coll = lmp.fix_vector("hs", 1), walls = lmp.fix_vector("hs", 2);
+  const auto x = lmp.gather("x", 3);
+  const double period[3] = {10.0, 10.0, 0.0};
+  double worst = hsgpu_test::closest_pair_gap(x, 1.0, period);
+  for (long i = 0; i < n; ++i) worst = std::min(worst, x[3 * i + 2] - 0.5);
+  std::printf("[ HS       ] fix pour into an empty group: %ld atoms, %.0f collisions, %.0f wall "
+              "collisions, closest pair or floor %.3g from contact\n",
+              n, coll, walls, worst);
+  EXPECT_GT(n, 100);
+  EXPECT_GT(coll, 100.0);
+  EXPECT_GT(walls, 100.0);
+  EXPECT_GT(worst, -1e-9);
+}
+
 TEST(FixHardSphere, BadInputStopsWithANamedError)
 {
   const std::vector<std::string> box = {"units lj",
@@ -477,6 +555,28 @@ TEST(FixHardSphere, BadInputStopsWithANamedError)
               HasSubstr("gpu must be yes or no, got maybe"));
   EXPECT_THAT(first_error({"fix hs all hardsphere device -2"}),
               HasSubstr("device must be auto or >= 0"));
+  // The timestep: zero or negative is named (not a NaN pressure, not an overlap later on).
+  EXPECT_THAT(first_error({"set atom 2 x 7", "timestep 0", "fix hs all hardsphere", "run 10"}),
+              HasSubstr("requires a positive timestep, got 0"));
+  EXPECT_THAT(first_error({"set atom 2 x 7", "timestep -0.01", "fix hs all hardsphere", "run 0"}),
+              HasSubstr("requires a positive timestep, got -0.01"));
+  // Two fixes on one atom; disjoint groups are fine (their atoms do not see each other).
+  EXPECT_THAT(first_error({"fix hs all hardsphere", "fix hs2 all hardsphere", "run 0"}),
+              HasSubstr("fixes hs (group all) and hs2 (group all) both act on atom 1"));
+  EXPECT_THAT(
+      first_error({"group b id 2", "fix hs all hardsphere", "fix hs2 b hardsphere", "run 0"}),
+      HasSubstr("fixes hs (group all) and hs2 (group b) both act on atom 2"));
+  EXPECT_EQ(first_error({"group a id 1", "group b id 2", "fix hs a hardsphere",
+                         "fix hs2 b hardsphere", "run 10"}),
+            "");
+  // An empty group is allowed (atoms may join it later); a group of points is not.
+  EXPECT_EQ(first_error({"group none empty", "fix hs none hardsphere", "run 10"}), "");
+  EXPECT_THAT(first_error({"group none empty", "fix hs none hardsphere", "fix hs2 none hardsphere",
+                           "run 0"}),
+              HasSubstr("both act on the same group"));
+  EXPECT_THAT(first_error({"unfix 1", "group a id 1", "set atom 1 diameter 0",
+                           "fix hs a hardsphere", "run 0"}),
+              HasSubstr("no atom of group a has a radius > 0"));
 }
 
 // overlap push relaxes random placements (every sphere overlapping two or three others at

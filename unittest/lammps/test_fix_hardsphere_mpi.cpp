@@ -180,3 +180,53 @@ TEST(FixHardSphereMPI, OverlapPushRelaxesRandomPlacementAcrossRanks)
   }
   MPI_Barrier(MPI_COMM_WORLD);
 }
+
+// The collision virial of the last step is kept across runs and in the restart file (summed
+// over the ranks that wrote it): the first pressure of a run continued on all ranks, or on rank
+// 0 alone, is the last one written.
+TEST(FixHardSphereMPI, RestartKeepsThePressureAcrossRanks)
+{
+  int me = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  const std::string file = "fix_hardsphere_mpi_press.restart";
+  const std::vector<std::string> fixes = {"comm_modify vel yes",
+                                          "neigh_modify every 1 delay 0 check yes",
+                                          "fix 1 all nve/sphere",
+                                          "fix hs all hardsphere",
+                                          "compute pk all pressure thermo_temp ke",
+                                          "thermo_style custom step press c_pk",
+                                          "thermo_modify norm no",
+                                          "timestep 0.005"};
+  double press = 0.0, kinetic = 0.0;
+  {
+    Lammps lmp;
+    lmp.commands({"units lj", "atom_style sphere", "atom_modify map array", "boundary p p p",
+                  "lattice fcc 0.76", "region box block 0 5 0 5 0 5", "create_box 1 box",
+                  "create_atoms 1 box", "set type 1 diameter 1.0", "set type 1 mass 1.0",
+                  "velocity all create 1.0 4928459 loop geom"});
+    lmp.commands(fixes);
+    lmp.commands({"run 100"});
+    press = lmp.thermo("press");
+    kinetic = lmp.compute_scalar("pk");
+    EXPECT_GT(press, 3.0 * kinetic);
+    lmp.commands({"write_restart " + file, "run 0"});
+    EXPECT_NEAR(lmp.thermo("press"), press, 1e-13 * press);
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+  {
+    Lammps lmp;
+    lmp.commands({"read_restart " + file});
+    lmp.commands(fixes);
+    lmp.commands({"run 0"});
+    EXPECT_NEAR(lmp.thermo("press"), press, 1e-13 * press) << "continued on all ranks";
+  }
+  if (me == 0) {
+    Lammps lmp(MPI_COMM_SELF);
+    lmp.commands({"read_restart " + file});
+    lmp.commands(fixes);
+    lmp.commands({"run 0"});
+    EXPECT_NEAR(lmp.thermo("press"), press, 1e-13 * press) << "continued on rank 0 alone";
+    std::remove(file.c_str());
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+}

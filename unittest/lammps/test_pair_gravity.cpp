@@ -224,6 +224,94 @@ TEST(PairGravityErrors, BadValues)
               HasSubstr("unknown precision quad"));
   EXPECT_THAT(error_for(BOX, "pair_style gravity 1 0.1 device -3"),
               HasSubstr("device must be auto or >= 0"));
+  // Squares that underflow (rc^2 = 0 would mean no cutoff, eps^2 = 0 no softening) or overflow.
+  EXPECT_THAT(error_for(BOX, "pair_style gravity 1 0.1 cutoff 1e-170"),
+              HasSubstr("cutoff 1e-170 has a square that underflows"));
+  EXPECT_THAT(error_for(BOX, "pair_style gravity 1 0.1 cutoff 1e200"),
+              HasSubstr("cutoff 1e200 has a square that overflows"));
+  EXPECT_THAT(error_for(BOX, "pair_style gravity 1 1e-170"),
+              HasSubstr("eps 1e-170 has a square that underflows"));
+  EXPECT_THAT(error_for(BOX, "pair_style gravity 1 1e160"),
+              HasSubstr("eps 1e160 has a square that overflows"));
+}
+
+// The smallest cutoffs that are accepted act as cutoffs: no pair of distinct atoms is within
+// 1e-150 of each other, so the energy is 0, where without a cutoff it is -G m^2 / r.
+TEST(PairGravity, TinyCutoffLeavesOutEveryPair)
+{
+  for (const char *style : {"pair_style gravity 1 0.1 cutoff 1e-150", "pair_style gravity 1 0.1"}) {
+    Lammps lmp;
+    lmp.commands(BOX);
+    lmp.commands({"create_atoms 1 single 0.5 0.5 0.8", style, "pair_coeff * *",
+                  "thermo_modify norm no", "run 0"});
+    const double pe = lmp.thermo("pe");
+    if (std::string(style).find("cutoff") != std::string::npos)
+      EXPECT_EQ(pe, 0.0) << style;
+    else
+      EXPECT_NEAR(pe, -1.0 / std::sqrt(0.3 * 0.3 + 0.1 * 0.1), 1e-14) << style;
+  }
+}
+
+// Results that cannot be right stop the run with an error naming the atoms or the setting,
+// not with -inf and NaN or a later "Lost atoms".
+TEST(PairGravityErrors, ImpossibleForcesAreNamed)
+{
+  auto setup = BOX;
+  setup.insert(setup.end(),
+               {"create_atoms 1 single 0.5 0.5 0.5", "create_atoms 1 single 0.2 0.3 0.4",
+                "pair_style gravity 1 0.0", "pair_coeff * *", "fix 1 all nve"});
+  // Atoms 1 and 2 at one point without softening (atom 3 elsewhere).
+  EXPECT_THAT(error_for(setup, "run 0"),
+              HasSubstr("atoms 1 and 2 are at the same position (0.5, 0.5, 0.5) at step 0 with "
+                        "eps = 0"));
+  // ... also when they meet during a run: atom 2 moves onto atom 1 in 8 steps (dyadic numbers,
+  // exact; the forces are far too weak to change a velocity or position).
+  {
+    auto moving = setup;
+    moving.insert(moving.end(),
+                  {"set atom 2 x 0.25", "group two id 2", "velocity two set 0.03125 0 0",
+                   "pair_style gravity 1e-30 0.0", "pair_coeff * *", "timestep 1"});
+    EXPECT_THAT(error_for(moving, "run 20"),
+                HasSubstr("atoms 1 and 2 are at the same position (0.5, 0.5, 0.5) at step 8"));
+  }
+  // An overflow: G m^2 is beyond double precision.
+  {
+    auto heavy = setup;
+    heavy.insert(heavy.end(), {"set atom 2 x 0.1", "mass 1 1e10", "pair_style gravity 1e300 0.1",
+                               "pair_coeff * *"});
+    const std::string err = error_for(heavy, "run 0");
+    EXPECT_THAT(err, HasSubstr("the force on atom 1 is not finite at step 0"));
+    EXPECT_THAT(err, HasSubstr("overflow"));
+  }
+  // A G so large that one step would throw atoms out of the box.
+  {
+    auto strong = setup;
+    strong.insert(strong.end(),
+                  {"set atom 2 x 0.1", "pair_style gravity 1e300 0.1", "pair_coeff * *"});
+    const std::string err = error_for(strong, "run 10");
+    EXPECT_THAT(err, HasSubstr("more than the box length 1: atoms would be lost"));
+    EXPECT_THAT(err, HasSubstr("G = 1e+300 is far too large"));
+    // A G that moves the atoms less than the box in a step runs.
+    strong.push_back("pair_style gravity 1 0.1");
+    strong.push_back("pair_coeff * *");
+    EXPECT_EQ(error_for(strong, "run 10"), "");
+  }
+}
+
+// compute pair/local walks a neighbor list that holds none of the style's pairs: an error
+// (LAMMPS's own check only catches the values that need single()).
+TEST(PairGravityErrors, ComputePairLocalIsRefused)
+{
+  auto setup = BOX;
+  setup.insert(setup.end(),
+               {"create_atoms 1 single 0.6 0.5 0.5", "pair_style gravity 1 0.1", "pair_coeff * *"});
+  for (const char *values : {"dist", "eng", "dist eng"}) {
+    auto with = setup;
+    with.push_back(std::string("compute pl all pair/local ") + values);
+    EXPECT_THAT(error_for(with, "run 0"),
+                HasSubstr("Pair style gravity does not support compute pair/local (compute pl)"))
+        << values;
+  }
 }
 
 TEST(PairGravityErrors, CoefficientsAreOnlyStarStar)

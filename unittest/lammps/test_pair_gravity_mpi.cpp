@@ -8,6 +8,7 @@
 #include "../common/systems.h"
 #include "gpu/device_info.cuh"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -102,4 +103,21 @@ TEST(PairGravityMPI, GpuPathOnAllRanksAgreesWithCpuOnOne)
   GravitySystem s;
   s.n = 300;
   compare_world_with_single_rank(s, s.pair + " gpu yes precision double", 1e-10);
+}
+
+// Two atoms at one point without softening, owned by whichever rank: every rank stops with the
+// same error naming them.
+TEST(PairGravityMPI, CoincidentAtomsAreNamedOnEveryRank)
+{
+  GravitySystem s;
+  s.pair = "pair_style gravity 1.0 0.0";
+  auto lines = hsgpu_test::gravity_system_lines(s);
+  lines.insert(lines.end(), {"create_atoms 1 single 3.25 4.5 5.75 units box",
+                             "create_atoms 2 single 3.25 4.5 5.75 units box",
+                             "set atom 201*202 mass 1.0", "fix integrate all nve"});
+  Lammps lmp;
+  lmp.commands(lines);
+  EXPECT_THAT(lmp.command("run 0"),
+              ::testing::HasSubstr("atoms 201 and 202 are at the same position (3.25, 4.5, 5.75) "
+                                   "at step 0 with eps = 0"));
 }
