@@ -227,6 +227,11 @@ TEST(FixHardSphere, NewtonsCradle)
     EXPECT_NEAR(x[12], 1.0 + 1.5, 1e-14) << order;    // left at t = 0.5, moved 1.5 since
     EXPECT_NEAR(x[0], -3.0, 1e-14);                   // stopped at contact with ball 2
     EXPECT_EQ(lmp.fix_vector("hs", 1), 4.0) << order;
+    // f_hs[20]: the seconds of the fix's steps, counted on and never back.
+    const double t100 = lmp.fix_vector("hs", 19);
+    EXPECT_GT(t100, 0.0) << order;
+    lmp.commands({"run 100"});
+    EXPECT_GT(lmp.fix_vector("hs", 19), t100) << order;
   }
 }
 
