@@ -16,8 +16,9 @@
 #
 # Columns: N; collisions per step; Modify ms/step (LAMMPS's Modify time per step: the fix
 # hardsphere step, transfers included, and fix nve/sphere) on the CPU and the GPU and their
-# ratio; fix step ms/step (the fix's own timer of its whole step, f_ID[20], which the run
-# summary line gives per step) on the CPU and the GPU and their ratio; the GPU's search and
+# ratio; fix step ms/step (the fix's own timer of its whole step, f_ID[20], per step after the
+# run's first, which allocates and page-locks: the run summary line gives it) on the CPU and
+# the GPU and their ratio; the GPU's search and
 # resolve ms/step (the fix's timers: search = upload and candidate search, resolve = windows,
 # checks and download) and the part of both spent copying (the run summary's seconds);
 # collisions per second of the GPU's fix step; steps carried out on the device.
@@ -70,7 +71,7 @@ one() {
   coll=$(sed 's/.* steps, \([0-9.e+]*\) collisions.*/\1/' <<< "$summary")
   search=$(sed 's/.*search \([0-9.e+-]*\) s.*/\1/' <<< "$summary")
   resolve=$(sed 's/.*resolve \([0-9.e+-]*\) s.*/\1/' <<< "$summary")
-  fixstep=$(sed "s/.*the fix's step \([0-9.e+-]*\) ms per step.*/\1/" <<< "$summary")
+  fixstep=$(sed "s/.*the fix's step [0-9.e+-]* ms per step (\([0-9.e+-]*\) ms after the first).*/\1/" <<< "$summary")
   transfer=0
   resident=0
   if [ -n "$dev" ]; then

@@ -105,8 +105,9 @@ class FixHardSphere : public Fix {
     double pairs = 0.0, events = 0.0, largest = 0.0, windows = 0.0, groups = 0.0;
     double boundary = 0.0, gathers = 0.0, repairs = 0.0, redos = 0.0;
     double t_search = 0.0, t_resolve = 0.0, t_step = 0.0;
-    bigint resident = 0;                     // steps carried out on the device
-    double t_transfer = 0.0;                 // seconds copying bodies to the device and back
+    double t_first = 0.0;       // seconds of the run's first step (allocations, page-locking)
+    bigint resident = 0;        // steps carried out on the device
+    double t_transfer = 0.0;    // seconds copying bodies to the device and back
     bigint declined[5] = {0, 0, 0, 0, 0};    // steps handed back, by ResidentOutcome
   } run_sum;
 

@@ -89,6 +89,9 @@ inline Order windows(int n, double bound_factor = 1.5, long target = 0)
   o.windows.nwindows = n;
   o.windows.bound_factor = bound_factor;
   o.windows.target_group = target;
+  // Explicit, so that the device-resident step cuts the same windows as the host driver (each
+  // has its own default).
+  o.windows.floor_fraction = 0.25;
   return o;
 }
 

@@ -22,11 +22,19 @@ namespace HSGPU {
 namespace Collide {
 
   struct WindowSettings {
-    int nwindows = 0;                // > 0: that many equal windows; 0: adaptive
-    double bound_factor = 1.5;       // k in d = max(k |v|, f vmax) (t1 - t0)
-    double floor_fraction = 0.25;    // f: the floor, as a fraction of the fastest drift speed
-    long target_group = 0;           // adaptive: largest group wanted; <= 0: max(256, N / 128)
+    int nwindows = 0;               // > 0: that many equal windows; 0: adaptive
+    double bound_factor = 1.5;      // k in d = max(k |v|, f vmax) (t1 - t0)
+    double floor_fraction = 0.0;    // f: the floor, as a fraction of the fastest drift speed;
+                                    // <= 0: the backend's own (floor_fraction_or())
+    long target_group = 0;          // adaptive: largest group wanted; <= 0: max(256, N / 128)
   };
+
+  /// The floor fraction of s, or `fallback` where s leaves it to the backend (the host step
+  /// driver's is 0.25; the device-resident step's 0.5, as its repairs cost more).
+  inline double floor_fraction_or(const WindowSettings &s, double fallback)
+  {
+    return s.floor_fraction > 0.0 ? s.floor_fraction : fallback;
+  }
 
   class WindowChooser {
    public:

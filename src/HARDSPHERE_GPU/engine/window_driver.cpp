@@ -502,7 +502,7 @@ namespace Collide {
     double vmax = 0.0;
     for (const Body &b : bodies) vmax = std::max(vmax, Contact::dot3(b.v, b.v));
     ex.max(&vmax, 1);
-    speed_floor = s.floor_fraction * std::sqrt(vmax);
+    speed_floor = floor_fraction_or(s, 0.25) * std::sqrt(vmax);
     stats = WindowStats();
     Tally tloc, tbnd;
     double t0 = 0.0;
