@@ -256,15 +256,20 @@ namespace Collide {
       tags[k] = NearTag{bound[order[k]], (long long) b.id};
     }
 
-    // Calls visit(j, bi, bj, ilo, ihi, r, sh) for every body j != i in the 27 cells around c,
-    // the cell of body i = order[k] (each cell once), with bi, bj their NearBody, ilo, ihi the
-    // pair ordered lower ID first, and r, sh the nearest-image separation of the start points
-    // x_ilo - x_ihi and its image shift.
     struct NearBody {
       NearPoint p;
       NearTag t;
     };
-    template <class Visit>
+
+    // Calls visit(j, bi, bj, ilo, ihi, r, sh) for the bodies j of the cells around c, the cell
+    // of body i = order[k] (each cell once), with bi, bj their NearBody, ilo, ihi the pair
+    // ordered lower ID first, and r, sh the nearest-image separation of the start points
+    // x_ilo - x_ihi and its image shift.  HALF false: every body j != i of the 27 cells.
+    // HALF true: the later bodies of c and those of the 13 cells at positive offsets (dz > 0,
+    // or dz = 0 and dy > 0, or dz = dy = 0 and dx > 0); over all k every pair of neighbouring
+    // cells is then visited once (a periodic length holds at least three cells), so every pair
+    // once.
+    template <bool HALF, class Visit>
     __device__ void for_each_near(const NearPoint *pts, const NearTag *tags, int k, int c,
                                   const Grid &g, const int *order, const int *cstart,
                                   const int *cend, Visit &&visit)
@@ -272,27 +277,28 @@ namespace Collide {
       const int ci[3] = {c % g.n[0], (c / g.n[0]) % g.n[1], c / (g.n[0] * g.n[1])};
       const int i = order[k];
       const NearBody bi{pts[k], tags[k]};
-      for (int dz = -1; dz <= 1; ++dz) {
+      for (int dz = HALF ? 0 : -1; dz <= 1; ++dz) {
         int cz = ci[2] + dz;
         if (g.periodic[2])
           cz = (cz + g.n[2]) % g.n[2];
         else if (cz < 0 || cz >= g.n[2])
           continue;
-        for (int dy = -1; dy <= 1; ++dy) {
+        for (int dy = (HALF && dz == 0) ? 0 : -1; dy <= 1; ++dy) {
           int cy = ci[1] + dy;
           if (g.periodic[1])
             cy = (cy + g.n[1]) % g.n[1];
           else if (cy < 0 || cy >= g.n[1])
             continue;
-          for (int dx = -1; dx <= 1; ++dx) {
+          for (int dx = (HALF && dz == 0 && dy == 0) ? 0 : -1; dx <= 1; ++dx) {
             int cx = ci[0] + dx;
             if (g.periodic[0])
               cx = (cx + g.n[0]) % g.n[0];
             else if (cx < 0 || cx >= g.n[0])
               continue;
             const int cc = (cz * g.n[1] + cy) * g.n[0] + cx;
-            for (int m = cstart[cc]; m < cend[cc]; ++m) {
-              if (m == k) continue;
+            const bool own = dz == 0 && dy == 0 && dx == 0;
+            for (int m = (HALF && own) ? k + 1 : cstart[cc]; m < cend[cc]; ++m) {
+              if (!HALF && m == k) continue;
               const int j = order[m];
               const NearBody bj{pts[m], tags[m]};
               const bool swap = bj.t.id < bi.t.id;
@@ -311,59 +317,8 @@ namespace Collide {
       }
     }
 
-    // Calls visit(j, bi, bj, ilo, ihi, r, sh) for every pair of body i = order[k] with a body
-    // j in half of the 27 cells around c, i's cell: the later bodies of c and the bodies of the
-    // 13 cells at positive offsets (dz > 0, or dz = 0 and dy > 0, or dz = dy = 0 and dx > 0).
-    // Over all k every pair of neighbouring cells is visited once (a periodic length holds at
-    // least three cells), so every pair once.  Arguments as for_each_near's.
-    template <class Visit>
-    __device__ void for_each_half_near(const NearPoint *pts, const NearTag *tags, int k, int c,
-                                       const Grid &g, const int *order, const int *cstart,
-                                       const int *cend, Visit &&visit)
-    {
-      const int ci[3] = {c % g.n[0], (c / g.n[0]) % g.n[1], c / (g.n[0] * g.n[1])};
-      const int i = order[k];
-      const NearBody bi{pts[k], tags[k]};
-      for (int dz = 0; dz <= 1; ++dz) {
-        int cz = ci[2] + dz;
-        if (g.periodic[2])
-          cz = cz % g.n[2];
-        else if (cz >= g.n[2])
-          continue;
-        for (int dy = (dz > 0 ? -1 : 0); dy <= 1; ++dy) {
-          int cy = ci[1] + dy;
-          if (g.periodic[1])
-            cy = (cy + g.n[1]) % g.n[1];
-          else if (cy < 0 || cy >= g.n[1])
-            continue;
-          for (int dx = (dz > 0 || dy > 0 ? -1 : 0); dx <= 1; ++dx) {
-            int cx = ci[0] + dx;
-            if (g.periodic[0])
-              cx = (cx + g.n[0]) % g.n[0];
-            else if (cx < 0 || cx >= g.n[0])
-              continue;
-            const int cc = (cz * g.n[1] + cy) * g.n[0] + cx;
-            // The own cell (all offsets 0): only the bodies after k.
-            const int first = (dz == 0 && dy == 0 && dx == 0) ? k + 1 : cstart[cc];
-            for (int m = first; m < cend[cc]; ++m) {
-              const int j = order[m];
-              const NearBody bj{pts[m], tags[m]};
-              const bool swap = bj.t.id < bi.t.id;
-              double xl[3], xh[3], r[3], sh[3];
-              for (int d = 0; d < 3; ++d) {
-                xl[d] = swap ? bj.p.x[d] : bi.p.x[d];
-                xh[d] = swap ? bi.p.x[d] : bj.p.x[d];
-              }
-              nearest_image_separation(xl, xh, g.prd, g.periodic, r, sh);
-              visit(j, bi, bj, swap ? j : i, swap ? i : j, r, sh);
-            }
-          }
-        }
-      }
-    }
-
     // Launch: one thread per sorted position k (n), body i = order[k].  Tests the pairs of
-    // for_each_half_near() as the host search does: lower ID first, nearest image of the
+    // for_each_near<true>() as the host search does: lower ID first, nearest image of the
     // start points, |r| <= (r_lo + r_hi) + (bound_lo + bound_hi).  FILL false: count[k] = its
     // pairs, s->overlap where a pair is closer than (1 - tol) contact.  FILL true: the pairs go
     // to edges[offset[k] ...], in visiting order.  Reads about 14 x (cell occupancy) x 52
@@ -379,26 +334,26 @@ namespace Collide {
       if (k >= n) return;
       int found = 0, overlap = 0;
       Edge *out = FILL ? edges + offset[k] : nullptr;
-      for_each_half_near(pts, tags, k, key[k], g, order, cstart, cend,
-                         [&](int, const NearBody &bi, const NearBody &bj, int ilo, int ihi,
-                             const double *r, const double *sh) {
-                           // (sums in either order: the same bits)
-                           const double range =
-                               (bi.p.radius + bj.p.radius) + (bi.t.bound + bj.t.bound);
-                           const double d2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
-                           if (d2 > range * range) return;
-                           if (FILL) {
-                             Edge e;
-                             e.i = ilo;
-                             e.j = ihi;
-                             for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
-                             out[found] = e;
-                           } else {
-                             const double lim = (bi.p.radius + bj.p.radius) * (1.0 - tol);
-                             if (d2 < lim * lim) overlap = 1;
-                           }
-                           ++found;
-                         });
+      for_each_near<true>(pts, tags, k, key[k], g, order, cstart, cend,
+                          [&](int, const NearBody &bi, const NearBody &bj, int ilo, int ihi,
+                              const double *r, const double *sh) {
+                            // (sums in either order: the same bits)
+                            const double range =
+                                (bi.p.radius + bj.p.radius) + (bi.t.bound + bj.t.bound);
+                            const double d2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+                            if (d2 > range * range) return;
+                            if (FILL) {
+                              Edge e;
+                              e.i = ilo;
+                              e.j = ihi;
+                              for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
+                              out[found] = e;
+                            } else {
+                              const double lim = (bi.p.radius + bj.p.radius) * (1.0 - tol);
+                              if (d2 < lim * lim) overlap = 1;
+                            }
+                            ++found;
+                          });
       if (!FILL) {
         count[k] = found;
         if (overlap) s->overlap = 1;
@@ -720,15 +675,16 @@ namespace Collide {
         s->missed_step = 1;
         return;
       }
-      for_each_near(pts, tags, k, key[k], g, order, cstart, cend,
-                    [&](int j, const NearBody &bi, const NearBody &bj, int, int, const double *r,
-                        const double *) {
-                      const double dist = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
-                      const double contact = bi.p.radius + bj.p.radius;
-                      if (dist <= contact + (bi.t.bound + bj.t.bound)) return;    // a candidate
-                      if (dist - contact > exc[i] + exc[j] + tol * contact) return;
-                      s->missed_step = 1;
-                    });
+      for_each_near<false>(pts, tags, k, key[k], g, order, cstart, cend,
+                           [&](int j, const NearBody &bi, const NearBody &bj, int, int,
+                               const double *r, const double *) {
+                             const double dist = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+                             const double contact = bi.p.radius + bj.p.radius;
+                             if (dist <= contact + (bi.t.bound + bj.t.bound))
+                               return;    // a candidate
+                             if (dist - contact > exc[i] + exc[j] + tol * contact) return;
+                             s->missed_step = 1;
+                           });
     }
 
     // Launch: one thread per body.  The bodies that had events, with their indices, into
