@@ -4,19 +4,22 @@
    One step, with the bodies on the device from the upload to the download:
 
      upload    run(): bodies and step bounds; run_atoms(): the caller's eight per-atom arrays,
-               page-locked where they lie (cudaHostRegister, kept between steps), and the
-               bodies built from them on the device
+               page-locked where they lie (cudaHostRegister, kept between steps), the step
+               budget's maxima (the host's step_budget()), and the bodies built from them on
+               the device (through a tile in shared memory)
      scan:     largest r + bound, fastest drift, wall overlaps     (one thread per body, block
                reductions, one atomic per block)
-     search:   cell of every start point, CUB radix sort by cell, cell ranges, candidate pairs
-               counted, CUB scan, written (one thread per body, 27 cells around it; each pair
-               once, from its lower body index), pair overlaps; CSR adjacency of the candidates
+     search:   cell of every start point, CUB radix sort by cell, cell ranges and the start
+               points in cell order, candidate pairs counted, CUB scan, written (one thread per
+               body, the 13 cells on one side of it and the later bodies of its own: each pair
+               once), pair overlaps; CSR adjacency of the candidates
      windows:  for each window length tried (window_chooser.h): window start points and bounds,
                edges joined (a flag per candidate), connected components by a lock-free
                union-find whose roots are the components' smallest indices, group sizes and the
                largest (one 8-byte download); for the window taken: groups numbered in root
-               order (CUB scans), members placed, bodies snapshot, one warp per group runs
-               group_loop_warp.cuh's exact loop over the joined edges, per-group tallies
+               order (CUB scans), members placed, bodies snapshot, groups partitioned by size
+               (CUB): one thread per group of one or two bodies runs collision_group_loop.h's
+               exact loop, one warp per larger group group_loop_warp.cuh's, per-group tallies
                reduced (CUB, a fixed order), excursions, pairs not joined that could have
                touched joined (if any: bodies back to the snapshot, components again, resolved
                again)
@@ -27,7 +30,8 @@
                step); only the bodies that had events go back, compacted in body order (run:
                whole Bodies; run_atoms: end-of-step x, v and tlast, written into the caller's
                arrays, or, where more than 1/32 of the atoms changed and the arrays are
-               page-locked, written into the device copies and x, v and tlast copied back whole)
+               page-locked, written into the device copies and x and v copied back whole;
+               every atom's tlast shifted to the step end and copied back whole)
 
    Every body and event computation is core/'s, compiled with --fmad=false (collide.cmake), so
    the events, and every bit of the bodies, are the step driver's.  Components are sets, the
@@ -39,7 +43,9 @@
    bodies placed twice or not at all and joined edges between groups on stderr;
    HSGPU_RESIDENT_PROFILE=1 times the phases above (waiting for the stream after each) and
    prints the means per step on stderr at the end; HSGPU_RESIDENT_SCATTER=1 always sends the
-   changed atoms back compacted (tests run both ways). */
+   changed atoms back compacted (tests run both ways); HSGPU_RESIDENT_TARGET, _SMALL, _KF and
+   _FLOOR override the window target, the largest group resolved by one thread, and the window
+   bounds' factor and floor fraction (tuning aids; no result bit depends on them). */
 #include "resident_step_cuda.h"
 
 #include "group_loop_warp.cuh"
