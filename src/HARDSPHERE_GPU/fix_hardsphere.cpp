@@ -89,7 +89,10 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
   extvector = -1;
   extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0, 0, 0};
   virial_global_flag = 1;
+  virial_peratom_flag = 1;    // on the steps LAMMPS asks for it (compute stress/atom)
   thermo_virial = 1;
+  vatom_step = -1;
+  maxexchange = 7;    // tlast and, on a step with per-atom virial, its 6 values
   restart_global = 1;
   restart_peratom = 1;
   create_attribute = 1;
@@ -554,28 +557,43 @@ void FixHardSphere::grow_arrays(int nmax)
   // LAMMPS has grown (moved) its per-atom arrays: the device step lets go of the old ones.
   if (resident) resident->forget_host_arrays();
   memory->grow(tlast, nmax, "hardsphere:tlast");
+  // The per-atom virial is computed in post_integrate, before the atoms of that step are
+  // exchanged and sorted: it grows, moves and migrates with them (as tlast does) while it
+  // holds a step's values (vflag_atom, the same on every rank).
+  if ((vatom || vflag_atom) && nmax > maxvatom) {
+    maxvatom = nmax;
+    memory->grow(vatom, maxvatom, 6, "hardsphere:vatom");
+  }
 }
 
 void FixHardSphere::copy_arrays(int i, int j, int)
 {
   tlast[j] = tlast[i];
+  if (vflag_atom)
+    for (int k = 0; k < 6; ++k) vatom[j][k] = vatom[i][k];
 }
 
 void FixHardSphere::set_arrays(int i)
 {
   tlast[i] = NEVER_COLLIDED;
+  if (vflag_atom && i < maxvatom)
+    for (int k = 0; k < 6; ++k) vatom[i][k] = 0.0;
 }
 
 int FixHardSphere::pack_exchange(int i, double *buf)
 {
   buf[0] = tlast[i];
-  return 1;
+  if (!vflag_atom) return 1;
+  for (int k = 0; k < 6; ++k) buf[1 + k] = vatom[i][k];
+  return 7;
 }
 
 int FixHardSphere::unpack_exchange(int nlocal, double *buf)
 {
   tlast[nlocal] = buf[0];
-  return 1;
+  if (!vflag_atom) return 1;
+  for (int k = 0; k < 6; ++k) vatom[nlocal][k] = buf[1 + k];
+  return 7;
 }
 
 int FixHardSphere::pack_restart(int i, double *buf)
@@ -638,5 +656,7 @@ double FixHardSphere::memory_usage()
            sizeof(HSGPU::Collide::Body);
   bytes += (double) (edges.capacity() + ledges.capacity() + gedges.capacity()) *
            sizeof(HSGPU::Collide::Edge);
+  bytes += (double) maxvatom * 6 * sizeof(double);
+  bytes += (double) (bvir.capacity() + lvir.capacity() + gvir.capacity()) * sizeof(double);
   return bytes;
 }

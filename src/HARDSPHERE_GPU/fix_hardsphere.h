@@ -140,6 +140,12 @@ class FixHardSphere : public Fix {
   HSGPU::Collide::WindowDriver driver;
   HSGPU::Collide::WindowSettings wsettings;
   std::unique_ptr<HSGPU::Collide::CollisionBackend> backend;
+  // Steps with per-atom virial where `backend` is the CUDA one (it cannot tally them).
+  std::unique_ptr<HSGPU::Collide::CollisionBackend> cpu_backend;
+  // Per-atom virial of the step, 6 per body (r (x) dp summed, before the 1/(dt ftm2v)); for
+  // order serial per lbodies and gbodies entry.  Only on steps that LAMMPS asks for it.
+  std::vector<double> bvir, lvir, gvir;
+  bigint vatom_step;    // step whose per-atom virial vatom holds, -1: none
   // The CUDA backend's device-resident step (one rank, parallel order), else null.
   std::unique_ptr<HSGPU::Collide::ResidentStep> resident;
   class LammpsExchange *exchange;
@@ -181,6 +187,8 @@ class FixHardSphere : public Fix {
   void step_serial(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   void step_windows(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   void apply_results(double dt, bool in_bodies);
+  void apply_virial(double dt, bool in_bodies);
+  void virial_init(int vflag);
 
   friend class LammpsExchange;
 };
