@@ -18,6 +18,7 @@
                                         18 steps carried out whole on the device, in total
                                         19 steps the device handed back to the host, in total
                                         20 seconds in the fix's whole step, in total
+                                        21 candidate pairs, last step (ext; -1: on the device)
 ------------------------------------------------------------------------------------- */
 
 #include "fix_hardsphere.h"
@@ -54,7 +55,7 @@ namespace {
 
 constexpr double NEVER_COLLIDED = -1.0e30;    // tlast of an atom that never collided
 const char *const FACES[HSGPU::Collide::NFACES] = {"xlo", "xhi", "ylo", "yhi", "zlo", "zhi"};
-constexpr int NVECTOR = 20;
+constexpr int NVECTOR = 21;
 constexpr int DEFAULT_MAXPUSH = 1000;    // overlap push passes before giving up
 constexpr int RESTART_FORMAT = 2;        // global restart data: -format, count, values
 
@@ -75,8 +76,8 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
     reach(0.0), list_cut(0.0), maxevents(0), tlast(nullptr), n_step(0.0), n_total(0.0), n_wall(0.0),
     ke_total(0.0), max_events(0.0), events_total(0.0), n_redo(0.0), last_largest(0.0),
     last_groups(0.0), last_windows(0.0), last_boundary(0.0), last_gathers(0.0), t_search(0.0),
-    t_resolve(0.0), t_step(0.0), n_repair(0.0), n_resident(0.0), n_declined(0.0), bound_floor(0.0),
-    exchange(nullptr), fwd_nval(0), n_push(0.0)
+    t_resolve(0.0), t_step(0.0), n_repair(0.0), n_resident(0.0), n_declined(0.0),
+    last_candidates(0.0), bound_floor(0.0), exchange(nullptr), fwd_nval(0), n_push(0.0)
 {
   for (double &o : ovl) o = 0.0;
   ovl_depth = 0.0;
@@ -87,7 +88,7 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
   size_vector = NVECTOR;
   global_freq = 1;
   extvector = -1;
-  extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0, 0, 0};
+  extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0, 0, 0, 1};
   virial_global_flag = 1;
   virial_peratom_flag = 1;    // on the steps LAMMPS asks for it (compute stress/atom)
   thermo_virial = 1;
@@ -480,6 +481,12 @@ double FixHardSphere::compute_vector(int n)
     return n_declined;
   case 19:
     return t_step;
+  case 20: {
+    // Summed over the ranks here (compute_vector runs on every rank).
+    double all = 0.0;
+    MPI_Allreduce(&last_candidates, &all, 1, MPI_DOUBLE, MPI_SUM, world);
+    return last_candidates < 0.0 ? -1.0 : all;
+  }
   default:
     return 0.0;
   }

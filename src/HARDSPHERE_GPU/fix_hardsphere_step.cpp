@@ -418,6 +418,8 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
       note((double) b.id, (double) (-1 - fc), s * (b.X0[d] - pos), b.radius, true);
       if (collect_pushes) push_dx[(size_t) 3 * b.owner + d] += s * (-gap + PUSH_MARGIN * b.radius);
     }
+  // Candidate pairs (a pair with a foreign atom is seen from both of its ranks).
+  last_candidates = (double) edges.size() + 0.5 * (double) fedges.size();
   t_search += MPI_Wtime() - t_start;
   return found;
 }
@@ -998,6 +1000,7 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
     return 0;
   }
   all = mine;
+  last_candidates = -1.0;    // the device's search is not counted
   n_resident += 1.0;
   run_sum.resident++;
   n_repair += (double) report.stats.repairs;

@@ -433,6 +433,81 @@ TEST(FixHardSphere, DenseRunHasNoOverlapsAndSerialEqualsParallel)
   EXPECT_LE(largest[3], largest[2]);
 }
 
+// Issue 12 item 8: diameters 1 and 10 run with LAMMPS's defaults (no 'neigh_modify one', no
+// 'comm_modify cutoff'): the fix requests no neighbor list (its own candidate search follows
+// each atom's size and speed) and raises the ghost cutoff itself.  Four big spheres among
+// about 6000 small ones under gravity, floor and roof: no error, collisions between small and
+// big spheres, no overlap at the end (all pairs, each with its own contact distance), and a
+// few candidate pairs per atom, not the hundreds a big-sphere cutoff would give.  (The search's
+// cells still follow the big spheres, so its cost does: doc/fix_hardsphere.md.)
+TEST(FixHardSphere, SizeRatioTenRunsWithDefaults)
+{
+  Lammps lmp;
+  lmp.commands({"units lj",
+                "atom_style sphere",
+                "atom_modify map array",
+                "boundary p p f",
+                "region box block 0 44 0 44 0 30",
+                "create_box 2 box",
+                "region s1 sphere 11 11 6 5.6 units box",
+                "region s2 sphere 33 11 6 5.6 units box",
+                "region s3 sphere 11 33 6 5.6 units box",
+                "region s4 sphere 33 33 6 5.6 units box",
+                "region notbig union 4 s1 s2 s3 s4 side out",
+                "region slab block 0 44 0 44 0 12 units box",
+                "region small intersect 2 slab notbig",
+                "lattice sc 0.2962962962962963 origin 0.5 0.5 0.5",
+                "create_atoms 1 region small",
+                "create_atoms 2 single 11 11 6 units box",
+                "create_atoms 2 single 33 11 6 units box",
+                "create_atoms 2 single 11 33 6 units box",
+                "create_atoms 2 single 33 33 6 units box",
+                "set type 1 diameter 1.0",
+                "set type 2 diameter 10.0",
+                "set type * density 1.0",
+                "velocity all create 2.0 87287 loop geom",
+                "fix 1 all nve/sphere",
+                "fix g all gravity 1.0 vector 0 0 -1"});
+#if HSGPU_LAMMPS_VERSION < 20220324
+  lmp.commands({"neigh_modify delay 0"});    // LAMMPS's default before 2022 was delay 10
+#endif
+  lmp.commands({"fix hs all hardsphere restitution 0.9 wall zlo 0.9 wall zhi 1.0",
+                "thermo_modify norm no", "timestep 0.005", "run 100"});
+  const long n = lmp.natoms();
+  EXPECT_GT(n, 5000);
+  const double coll = lmp.fix_vector("hs", 1), walls = lmp.fix_vector("hs", 2);
+  const double cand = lmp.fix_vector("hs", 20);
+  const double t_step = lmp.fix_vector("hs", 19) / 100.0;
+  EXPECT_GT(coll, 1000.0);
+  EXPECT_GT(walls, 0.0);
+  // Candidate pairs of the last step per atom: a cutoff of the big spheres' contact distance
+  // (plus the step's reach) would give several hundred.
+  EXPECT_GT(cand, 0.0);
+  EXPECT_LT(cand / n, 10.0);
+  const auto x = lmp.gather("x", 3), rad = lmp.gather("radius", 1);
+  double worst = 1e300, worst_big = 1e300;
+  for (long i = 0; i < n; ++i)
+    for (long j = i + 1; j < n; ++j) {
+      double r2 = 0.0;
+      for (int d = 0; d < 3; ++d) {
+        double dx = x[3 * i + d] - x[3 * j + d];
+        if (d < 2) dx -= 44.0 * std::round(dx / 44.0);
+        r2 += dx * dx;
+      }
+      const double s = rad[i] + rad[j];
+      if (r2 > 4.0 * s * s) continue;
+      const double gap = (std::sqrt(r2) - s) / s;
+      worst = std::min(worst, gap);
+      if (rad[i] != rad[j]) worst_big = std::min(worst_big, gap);
+    }
+  EXPECT_GT(worst, -1e-9);
+  EXPECT_LT(worst_big, 1e-3) << "no small sphere near a big one: nothing tested";
+  std::printf("[ HS       ] diameters 1 and 10: %ld spheres, 100 steps, %.0f collisions, %.0f "
+              "wall collisions, %.2f candidate pairs per atom, %.3g ms per step (fix), closest "
+              "pair %.3g of contact from it (small-big %.3g)\n",
+              n, coll, walls, cand / n, 1e3 * t_step, worst, worst_big);
+}
+
 TEST(FixHardSphere, RestartContinuationEqualsUninterruptedRun)
 {
   const std::string file = "fix_hardsphere_test.restart";
