@@ -281,6 +281,10 @@ TEST(FixHardSphere, PerAtomVirialOfAPairIsHalfToEachAtom)
   const double vol = 20.0 * 20.0 * 20.0;
   EXPECT_NEAR(lmp.compute_vector("red", 0), -lmp.compute_vector("pv", 0) * vol, 1e-12);
   EXPECT_NEAR(lmp.compute_vector("red", 0), -27.0, 1e-12);
+  // The start of the next run shows the last step's values, as it does the global virial.
+  lmp.commands({"run 0"});
+  EXPECT_NEAR(lmp.compute_vector("r1", 0), -13.5, 1e-12);
+  EXPECT_NEAR(lmp.compute_vector("red", 0), -lmp.compute_vector("pv", 0) * vol, 1e-12);
   lmp.commands({"run 1"});
   EXPECT_EQ(lmp.compute_vector("r1", 0), 0.0);
   EXPECT_EQ(lmp.compute_vector("r2", 0), 0.0);
