@@ -18,6 +18,7 @@
                                         18 steps carried out whole on the device, in total
                                         19 steps the device handed back to the host, in total
                                         20 seconds in the fix's whole step, in total
+                                        21 candidate pairs, last step (ext; -1: on the device)
 ------------------------------------------------------------------------------------- */
 
 #include "fix_hardsphere.h"
@@ -54,7 +55,7 @@ namespace {
 
 constexpr double NEVER_COLLIDED = -1.0e30;    // tlast of an atom that never collided
 const char *const FACES[HSGPU::Collide::NFACES] = {"xlo", "xhi", "ylo", "yhi", "zlo", "zhi"};
-constexpr int NVECTOR = 20;
+constexpr int NVECTOR = 21;
 constexpr int DEFAULT_MAXPUSH = 1000;    // overlap push passes before giving up
 constexpr int RESTART_FORMAT = 2;        // global restart data: -format, count, values
 
@@ -75,8 +76,8 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
     reach(0.0), list_cut(0.0), maxevents(0), tlast(nullptr), n_step(0.0), n_total(0.0), n_wall(0.0),
     ke_total(0.0), max_events(0.0), events_total(0.0), n_redo(0.0), last_largest(0.0),
     last_groups(0.0), last_windows(0.0), last_boundary(0.0), last_gathers(0.0), t_search(0.0),
-    t_resolve(0.0), t_step(0.0), n_repair(0.0), n_resident(0.0), n_declined(0.0), bound_floor(0.0),
-    exchange(nullptr), fwd_nval(0), n_push(0.0)
+    t_resolve(0.0), t_step(0.0), n_repair(0.0), n_resident(0.0), n_declined(0.0),
+    last_candidates(0.0), bound_floor(0.0), exchange(nullptr), fwd_nval(0), n_push(0.0)
 {
   for (double &o : ovl) o = 0.0;
   ovl_depth = 0.0;
@@ -87,9 +88,12 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
   size_vector = NVECTOR;
   global_freq = 1;
   extvector = -1;
-  extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0, 0, 0};
+  extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0, 0, 0, 1};
   virial_global_flag = 1;
+  virial_peratom_flag = 1;    // on the steps LAMMPS asks for it (compute stress/atom)
   thermo_virial = 1;
+  vatom_step = -1;
+  maxexchange = 7;    // tlast and, on a step with per-atom virial, its 6 values
   restart_global = 1;
   restart_peratom = 1;
   create_attribute = 1;
@@ -477,6 +481,12 @@ double FixHardSphere::compute_vector(int n)
     return n_declined;
   case 19:
     return t_step;
+  case 20: {
+    // Summed over the ranks here (compute_vector runs on every rank).
+    double all = 0.0;
+    MPI_Allreduce(&last_candidates, &all, 1, MPI_DOUBLE, MPI_SUM, world);
+    return last_candidates < 0.0 ? -1.0 : all;
+  }
   default:
     return 0.0;
   }
@@ -554,28 +564,43 @@ void FixHardSphere::grow_arrays(int nmax)
   // LAMMPS has grown (moved) its per-atom arrays: the device step lets go of the old ones.
   if (resident) resident->forget_host_arrays();
   memory->grow(tlast, nmax, "hardsphere:tlast");
+  // The per-atom virial is computed in post_integrate, before the atoms of that step are
+  // exchanged and sorted: it grows, moves and migrates with them (as tlast does) while it
+  // holds a step's values (vflag_atom, the same on every rank).
+  if ((vatom || vflag_atom) && nmax > maxvatom) {
+    maxvatom = nmax;
+    memory->grow(vatom, maxvatom, 6, "hardsphere:vatom");
+  }
 }
 
 void FixHardSphere::copy_arrays(int i, int j, int)
 {
   tlast[j] = tlast[i];
+  if (vflag_atom)
+    for (int k = 0; k < 6; ++k) vatom[j][k] = vatom[i][k];
 }
 
 void FixHardSphere::set_arrays(int i)
 {
   tlast[i] = NEVER_COLLIDED;
+  if (vflag_atom && i < maxvatom)
+    for (int k = 0; k < 6; ++k) vatom[i][k] = 0.0;
 }
 
 int FixHardSphere::pack_exchange(int i, double *buf)
 {
   buf[0] = tlast[i];
-  return 1;
+  if (!vflag_atom) return 1;
+  for (int k = 0; k < 6; ++k) buf[1 + k] = vatom[i][k];
+  return 7;
 }
 
 int FixHardSphere::unpack_exchange(int nlocal, double *buf)
 {
   tlast[nlocal] = buf[0];
-  return 1;
+  if (!vflag_atom) return 1;
+  for (int k = 0; k < 6; ++k) vatom[nlocal][k] = buf[1 + k];
+  return 7;
 }
 
 int FixHardSphere::pack_restart(int i, double *buf)
@@ -638,5 +663,7 @@ double FixHardSphere::memory_usage()
            sizeof(HSGPU::Collide::Body);
   bytes += (double) (edges.capacity() + ledges.capacity() + gedges.capacity()) *
            sizeof(HSGPU::Collide::Edge);
+  bytes += (double) maxvatom * 6 * sizeof(double);
+  bytes += (double) (bvir.capacity() + lvir.capacity() + gvir.capacity()) * sizeof(double);
   return bytes;
 }

@@ -82,25 +82,26 @@ class FixHardSphere : public Fix {
   double *tlast;    // time of the atom's last collision relative to the end of the last step
 
   // --- output -----------------------------------------------------------------------------
-  double n_step;           // collisions (pair) this step
-  double n_total;          // pair collisions in total
-  double n_wall;           // wall collisions in total
-  double ke_total;         // kinetic energy removed in total (energy units)
-  double max_events;       // most events any step needed
-  double events_total;     // events in total
-  double n_redo;           // steps redone (larger displacement budget, or a window's check)
-  double last_largest;     // most atoms resolved together in one window, last step
-  double last_groups;      // groups of two or more atoms resolved, last step (all windows)
-  double last_windows;     // time windows of the last step
-  double last_boundary;    // atoms in groups that spanned ranks, last step (all windows)
-  double last_gathers;     // gathers of the groups that span ranks, last step
-  double t_search;         // seconds spent in the candidate search, in total
-  double t_resolve;        // seconds spent resolving, in total
-  double t_step;           // seconds spent in the fix's step (post_integrate), in total
-  double n_repair;         // groups merged and resolved again after a missed contact, in total
-  double n_resident;       // steps carried out whole on the device, in total
-  double n_declined;       // steps the device handed back to the host, in total
-  struct RunSummary {      // this run, for the line post_run() logs
+  double n_step;             // collisions (pair) this step
+  double n_total;            // pair collisions in total
+  double n_wall;             // wall collisions in total
+  double ke_total;           // kinetic energy removed in total (energy units)
+  double max_events;         // most events any step needed
+  double events_total;       // events in total
+  double n_redo;             // steps redone (larger displacement budget, or a window's check)
+  double last_largest;       // most atoms resolved together in one window, last step
+  double last_groups;        // groups of two or more atoms resolved, last step (all windows)
+  double last_windows;       // time windows of the last step
+  double last_boundary;      // atoms in groups that spanned ranks, last step (all windows)
+  double last_gathers;       // gathers of the groups that span ranks, last step
+  double t_search;           // seconds spent in the candidate search, in total
+  double t_resolve;          // seconds spent resolving, in total
+  double t_step;             // seconds spent in the fix's step (post_integrate), in total
+  double n_repair;           // groups merged and resolved again after a missed contact, in total
+  double n_resident;         // steps carried out whole on the device, in total
+  double n_declined;         // steps the device handed back to the host, in total
+  double last_candidates;    // candidate pairs of the last step on this rank, -1: on the device
+  struct RunSummary {        // this run, for the line post_run() logs
     bigint steps = 0;
     double pairs = 0.0, events = 0.0, largest = 0.0, windows = 0.0, groups = 0.0;
     double boundary = 0.0, gathers = 0.0, repairs = 0.0, redos = 0.0;
@@ -140,6 +141,12 @@ class FixHardSphere : public Fix {
   HSGPU::Collide::WindowDriver driver;
   HSGPU::Collide::WindowSettings wsettings;
   std::unique_ptr<HSGPU::Collide::CollisionBackend> backend;
+  // Steps with per-atom virial where `backend` is the CUDA one (it cannot tally them).
+  std::unique_ptr<HSGPU::Collide::CollisionBackend> cpu_backend;
+  // Per-atom virial of the step, 6 per body (r (x) dp summed, before the 1/(dt ftm2v)); for
+  // order serial per lbodies and gbodies entry.  Only on steps that LAMMPS asks for it.
+  std::vector<double> bvir, lvir, gvir;
+  bigint vatom_step;    // step whose per-atom virial vatom holds, -1: none
   // The CUDA backend's device-resident step (one rank, parallel order), else null.
   std::unique_ptr<HSGPU::Collide::ResidentStep> resident;
   class LammpsExchange *exchange;
@@ -181,6 +188,8 @@ class FixHardSphere : public Fix {
   void step_serial(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   void step_windows(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   void apply_results(double dt, bool in_bodies);
+  void apply_virial(double dt, bool in_bodies);
+  void virial_init(int vflag);
 
   friend class LammpsExchange;
 };

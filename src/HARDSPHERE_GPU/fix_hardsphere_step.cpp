@@ -14,7 +14,12 @@
         With 'order serial': the seed paper's global loop over all of this rank's bodies
         (several ranks: over all bodies, gathered);
      5. check that nobody moved further than D (else redo with a larger D);
-     6. positions and half-step velocities back to the atoms, counters, virial.
+     6. positions and half-step velocities back to the atoms, counters, virial; on steps
+        where LAMMPS asks for per-atom virials (update->vflag_atom, set by Integrate::ev_set
+        before post_integrate) also those: half of each pair collision's r (x) dp to each of
+        its two atoms, all of a wall collision's to its atom, each rank to its own atoms.
+        Such steps run on the host (not the device-resident step, and with the CPU backend
+        in place of the CUDA one), which gives the same trajectories bit for bit.
 ------------------------------------------------------------------------------------- */
 
 #include "fix_hardsphere.h"
@@ -25,6 +30,7 @@
 #include "error.h"
 #include "force.h"
 #include "group.h"
+#include "memory.h"
 #include "neighbor.h"
 #include "update.h"
 #include "utils.h"
@@ -412,6 +418,8 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
       note((double) b.id, (double) (-1 - fc), s * (b.X0[d] - pos), b.radius, true);
       if (collect_pushes) push_dx[(size_t) 3 * b.owner + d] += s * (-gap + PUSH_MARGIN * b.radius);
     }
+  // Candidate pairs (a pair with a foreign atom is seen from both of its ranks).
+  last_candidates = (double) edges.size() + 0.5 * (double) fedges.size();
   t_search += MPI_Wtime() - t_start;
   return found;
 }
@@ -668,16 +676,25 @@ void FixHardSphere::resolve(Tally &mine, Tally &all)
     }
 
   Tally tl, tg;
+  double *lv = nullptr, *gv = nullptr;
+  if (vflag_atom) {
+    lvir.assign(6 * lbodies.size(), 0.0);
+    lv = lvir.data();
+  }
   if (serial_order)
-    resolver.resolve_serial(lbodies, ledges, p, tl);
+    resolver.resolve_serial(lbodies, ledges, p, tl, lv);
   else
-    resolver.resolve_components(lbodies, ledges, p, tl);
+    resolver.resolve_components(lbodies, ledges, p, tl, lv);
   gather_boundary();
+  if (vflag_atom) {
+    gvir.assign(6 * gbodies.size(), 0.0);
+    gv = gvir.data();
+  }
   if (!gbodies.empty()) {
     if (serial_order)
-      resolver.resolve_serial(gbodies, gedges, p, tg);
+      resolver.resolve_serial(gbodies, gedges, p, tg, gv);
     else
-      resolver.resolve_components(gbodies, gedges, p, tg);
+      resolver.resolve_components(gbodies, gedges, p, tg, gv);
   }
 
   double xe[3], ve[3];
@@ -730,7 +747,37 @@ void FixHardSphere::apply_results(double dt, bool in_bodies)
     if (gmine[k] >= 0) put(gbodies[k], bodies[gmine[k]].owner);
 }
 
-void FixHardSphere::setup(int)
+/* Fix::v_init, with vatom sized for every atom this rank can hold (v_init leaves it
+   unallocated on a rank without atoms, and atoms may arrive with the exchange after the
+   step; grow_arrays() keeps it sized from then on). */
+void FixHardSphere::virial_init(int vflag)
+{
+  v_init(vflag);
+  if (vflag_atom && atom->nmax > maxvatom) {
+    maxvatom = atom->nmax;
+    memory->grow(vatom, maxvatom, 6, "hardsphere:vatom");
+  }
+}
+
+/* The step's per-atom virial into vatom (zeroed by v_init for every owned atom), in the
+   global virial's units: each body's share of r (x) dp divided by dt ftm2v.  Bodies of
+   groups that spanned ranks were resolved on every rank; each rank takes its own only. */
+void FixHardSphere::apply_virial(double dt, bool in_bodies)
+{
+  const double scale = 1.0 / (dt * force->ftm2v);
+  auto put = [&](const double *w, int i) {
+    for (int k = 0; k < 6; ++k) vatom[i][k] += w[k] * scale;
+  };
+  if (in_bodies) {
+    for (size_t b = 0; b < bodies.size(); ++b) put(&bvir[6 * b], bodies[b].owner);
+    return;
+  }
+  for (size_t b = 0; b < lbodies.size(); ++b) put(&lvir[6 * b], lbodies[b].owner);
+  for (size_t k = 0; k < gbodies.size(); ++k)
+    if (gmine[k] >= 0) put(&gvir[6 * k], bodies[gmine[k]].owner);
+}
+
+void FixHardSphere::setup(int vflag)
 {
   // Commands between runs may have moved the atom arrays the device step keeps page-locked.
   if (resident) resident->forget_host_arrays();
@@ -742,6 +789,12 @@ void FixHardSphere::setup(int)
   run_sum.t_resolve = -t_resolve;
   run_sum.repairs = -n_repair;
   run_sum.redos = -n_redo;
+  // Per-atom virial asked for at the run's first output: the last step's where vatom holds
+  // it (kept with the atoms since, as the global virial is), else none.
+  if (!(vflag_atom && vatom_step == update->ntimestep)) {
+    vatom_step = -1;
+    virial_init(vflag & (VIRIAL_ATOM | VIRIAL_CENTROID));
+  }
   sboost.assign(atom->nlocal, 0.0);
   bound_floor = 0.0;
   // Overlaps in the starting configuration (or made since the last run).
@@ -846,9 +899,17 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
   const double dt = update->dt;
   const Params p = step_params();
   HSGPU::Collide::WindowStats stats;
+  // Per-atom virial: the CPU backend (the CUDA one cannot tally it; same results).
+  HSGPU::Collide::CollisionBackend *be = backend.get();
+  if (vflag_atom && backend_device >= 0) {
+    if (!cpu_backend) cpu_backend = HSGPU::Collide::make_cpu_backend();
+    be = cpu_backend.get();
+  }
   while (true) {
     const double t0 = MPI_Wtime();
-    driver.run(bodies, edges, efedges, fnodes, p, wsettings, *backend, *exchange, mine, stats);
+    if (vflag_atom) bvir.assign(6 * bodies.size(), 0.0);
+    driver.run(bodies, edges, efedges, fnodes, p, wsettings, *be, *exchange, mine, stats,
+               vflag_atom ? bvir.data() : nullptr);
     double xe[3], ve[3];
     for (Body &b : bodies) HSGPU::Collide::end_of_step(b, dt, xe, ve);
     sum_tallies(mine, all);
@@ -877,7 +938,8 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
    from the same start. */
 int FixHardSphere::step_resident(Tally &mine, Tally &all)
 {
-  if (!resident || comm->nprocs > 1) return 0;
+  // Per-atom virial: on the host (the device step does not tally it).
+  if (!resident || comm->nprocs > 1 || vflag_atom) return 0;
   const double dt = update->dt;
   const double t_start = MPI_Wtime();
   HSGPU::Collide::ResidentBox box;
@@ -938,6 +1000,7 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
     return 0;
   }
   all = mine;
+  last_candidates = -1.0;    // the device's search is not counted
   n_resident += 1.0;
   run_sum.resident++;
   n_repair += (double) report.stats.repairs;
@@ -955,8 +1018,11 @@ void FixHardSphere::post_integrate()
 {
   const double t_start = MPI_Wtime();
   const double dt = update->dt;
+  // Per-atom virial on the steps LAMMPS asks for it (Integrate::ev_set sets vflag_atom to the
+  // step before post_integrate); v_init zeroes vatom then, and sets vflag_atom.
+  virial_init(update->vflag_atom == update->ntimestep ? VIRIAL_ATOM : 0);
   // A whole step on the device (one rank, group all) finds the budget's maxima there.
-  if (!(resident && comm->nprocs == 1 && igroup == 0)) step_budget();
+  if (!(resident && comm->nprocs == 1 && igroup == 0 && !vflag_atom)) step_budget();
   Tally mine, all;
   const int on_device = step_resident(mine, all);
   if (!on_device) {
@@ -982,6 +1048,10 @@ void FixHardSphere::post_integrate()
 
   // 2: the device wrote the atoms itself; 1: its results are in bodies.
   if (on_device != 2) apply_results(dt, on_device == 1 || !serial_order);
+  if (vflag_atom) {
+    apply_virial(dt, !serial_order);
+    vatom_step = update->ntimestep;
+  }
 
   n_step = (double) all.pair;
   n_total += (double) all.pair;

@@ -97,9 +97,10 @@ inline Order windows(int n, double bound_factor = 1.5, long target = 0)
 
 // One velocity-Verlet step with hard-sphere collisions resolved in the given order (time
 // windows with the given backend, the CPU one by default; with a resident step, time windows
-// on it, and where it declines the step, on the backend).
+// on it, and where it declines the step, on the backend).  body_virial: where given (host
+// orders only), each body's per-atom virial of the step, 6 per body in memory order.
 inline StepResult step(World &w, double dt, const Order &order, CollisionBackend *backend = nullptr,
-                       ResidentStep *resident = nullptr)
+                       ResidentStep *resident = nullptr, std::vector<double> *body_virial = nullptr)
 {
   const bool serial = order.kind == Order::Serial;
   const int n = (int) w.s.size();
@@ -183,14 +184,19 @@ inline StepResult step(World &w, double dt, const Order &order, CollisionBackend
       }
     bodies = start;
     out.tally = Tally();
+    double *bv = nullptr;
+    if (body_virial) {
+      body_virial->assign(6 * (size_t) n, 0.0);
+      bv = body_virial->data();
+    }
     if (serial) {
-      res.resolve_serial(bodies, edges, p, out.tally);
+      res.resolve_serial(bodies, edges, p, out.tally, bv);
     } else if (order.kind == Order::Components) {
-      res.resolve_components(bodies, edges, p, out.tally);
+      res.resolve_components(bodies, edges, p, out.tally, bv);
       out.max_component_events = res.max_component_events;
     } else {
       (resident ? fallback : driver)
-          .run(bodies, edges, {}, {}, p, order.windows, *backend, single, out.tally, out.stats);
+          .run(bodies, edges, {}, {}, p, order.windows, *backend, single, out.tally, out.stats, bv);
       out.window_redo += (int) out.stats.repairs;
     }
     EXPECT_EQ(out.tally.capped, 0) << "a step needed more than " << p.maxevents << " events";

@@ -168,6 +168,44 @@ TEST(WindowDriver, EqualsSerialBitwise)
   check_windows_equal_serial(nullptr);
 }
 
+// Per-atom virial: in every order (windows with repairs included) the bodies' shares add up to
+// the step's virial, and each body's equals its share in order serial (the same events; only
+// the order of the additions differs between windows).
+TEST(WindowDriver, PerBodyVirialSumsToTheTallyAndEqualsSerial)
+{
+  const Order orders[] = {COMPONENTS, windows(3), windows(0, 1.5, 4), windows(0, 0.25, 0),
+                          windows(5, 0.1, 0)};
+  for (const WindowCase &wc : window_cases()) {
+    for (const Order &o : orders) {
+      World ws = wc.world, wo = wc.world;
+      long repairs = 0;
+      double worst_sum = 0.0, worst_body = 0.0, scale = 0.0;
+      for (int it = 0; it < std::min(wc.steps, 60); ++it) {
+        std::vector<double> vs, vo;
+        const StepResult rs = step(ws, wc.dt, SERIAL, nullptr, nullptr, &vs);
+        const StepResult ro = step(wo, wc.dt, o, nullptr, nullptr, &vo);
+        repairs += ro.stats.repairs;
+        double sum[6] = {0, 0, 0, 0, 0, 0};
+        for (size_t b = 0; b < vo.size() / 6; ++b)
+          for (int k = 0; k < 6; ++k) {
+            sum[k] += vo[6 * b + k];
+            worst_body = std::max(worst_body, std::fabs(vo[6 * b + k] - vs[6 * b + k]));
+          }
+        for (int k = 0; k < 6; ++k) {
+          scale = std::max(scale, std::fabs(rs.tally.virial[k]));
+          worst_sum = std::max(worst_sum, std::fabs(sum[k] - ro.tally.virial[k]));
+        }
+      }
+      EXPECT_GT(scale, 0.0) << wc.name;
+      EXPECT_LE(worst_sum, 1e-12 * scale) << wc.name;
+      EXPECT_LE(worst_body, 1e-12 * scale) << wc.name;
+      if (o.kind == Order::Windows && o.windows.bound_factor < 0.5) {
+        EXPECT_GT(repairs, 0) << wc.name << ": no repair to test";
+      }
+    }
+  }
+}
+
 TEST(WindowDriver, SmallGroupsInADenseFluid)
 {
   // With windows the dense fluid splits into small groups; one window of the whole step with

@@ -133,4 +133,13 @@ double Lammps::fix_vector(const char *id, int i)
   return v;
 }
 
+double Lammps::variable(const char *name)
+{
+  auto *p = (double *) lammps_extract_variable(lmp, name, nullptr);
+  if (!p) return NAN;
+  const double v = *p;
+  lammps_free(p);
+  return v;
+}
+
 }    // namespace hsgpu_test

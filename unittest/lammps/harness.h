@@ -36,6 +36,8 @@ class Lammps {
   double compute_vector(const char *id, int i);
   // Element i (0-based) of fix `id`'s global vector, NaN where the fix gives none.
   double fix_vector(const char *id, int i);
+  // Value of equal-style variable `name` (NaN where there is none).
+  double variable(const char *name);
   void *handle() { return lmp; }
 
  private:

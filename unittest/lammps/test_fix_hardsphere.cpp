@@ -254,6 +254,123 @@ TEST(FixHardSphere, CollisionVirialEntersThePressure)
   EXPECT_EQ(lmp.compute_scalar("pv"), 0.0);
 }
 
+// Per-atom virial (compute stress/atom, fix contributions only): the head-on pair of the test
+// above gives each atom half of r (x) dp / dt, in stress units -(virial); the two add up to
+// minus the collision virial that compute pressure sees (volume 20^3); none on the next step.
+TEST(FixHardSphere, PerAtomVirialOfAPairIsHalfToEachAtom)
+{
+  Lammps lmp;
+  lmp.commands(sphere_lines(head_on_pair()));
+  // Each atom's values through compute reduce over its own group (sphere_lines: g1, g2).
+  lmp.commands({"fix 1 all nve/sphere", "fix hs all hardsphere restitution 0.8",
+                "compute s all stress/atom NULL fix",
+                "compute red all reduce sum c_s[1] c_s[2] c_s[3] c_s[4] c_s[5] c_s[6]",
+                "compute r1 g1 reduce sum c_s[1] c_s[2] c_s[3] c_s[4] c_s[5] c_s[6]",
+                "compute r2 g2 reduce sum c_s[1] c_s[2] c_s[3] c_s[4] c_s[5] c_s[6]",
+                "compute pv all pressure NULL virial",
+                "thermo_style custom step c_red[1] c_r1[1] c_r2[1] c_pv[1]", "timestep 0.1",
+                "run 6"});
+  EXPECT_EQ(lmp.fix_vector("hs", 0), 1.0);
+  // r . dp = 2.7 (see above), all of it xx: 27 in virial units, 13.5 per atom.
+  EXPECT_NEAR(lmp.compute_vector("r1", 0), -13.5, 1e-12);
+  EXPECT_NEAR(lmp.compute_vector("r2", 0), -13.5, 1e-12);
+  for (int k = 1; k < 6; ++k) {
+    EXPECT_EQ(lmp.compute_vector("r1", k), 0.0) << k;
+    EXPECT_EQ(lmp.compute_vector("r2", k), 0.0) << k;
+  }
+  const double vol = 20.0 * 20.0 * 20.0;
+  EXPECT_NEAR(lmp.compute_vector("red", 0), -lmp.compute_vector("pv", 0) * vol, 1e-12);
+  EXPECT_NEAR(lmp.compute_vector("red", 0), -27.0, 1e-12);
+  // The start of the next run shows the last step's values, as it does the global virial.
+  lmp.commands({"run 0"});
+  EXPECT_NEAR(lmp.compute_vector("r1", 0), -13.5, 1e-12);
+  EXPECT_NEAR(lmp.compute_vector("red", 0), -lmp.compute_vector("pv", 0) * vol, 1e-12);
+  lmp.commands({"run 1"});
+  EXPECT_EQ(lmp.compute_vector("r1", 0), 0.0);
+  EXPECT_EQ(lmp.compute_vector("r2", 0), 0.0);
+}
+
+// A wall collision gives all of its virial to the atom: unit mass, speed 1 onto the floor
+// z = -10 with e = 1 at radius 0.5 from it: m dv (z - zwall) = 2 * 0.5, / dt = 10.
+TEST(FixHardSphere, PerAtomVirialOfAWallBounceIsTheAtoms)
+{
+  Spheres one;
+  one.x = {{0, 0, -8.05}};
+  one.v = {{0, 0, -1}};
+  one.dia = {1};
+  one.m = {1};
+  one.boundary = "p p f";
+  Lammps lmp;
+  lmp.commands(sphere_lines(one));
+  lmp.commands({"fix 1 all nve/sphere", "fix hs all hardsphere wall zlo 1.0",
+                "compute s all stress/atom NULL fix",
+                "compute red all reduce sum c_s[1] c_s[2] c_s[3] c_s[4] c_s[5] c_s[6]",
+                "compute pv all pressure NULL virial", "thermo_style custom step c_red[3] c_pv[3]",
+                "timestep 0.1", "run 15"});
+  EXPECT_EQ(lmp.fix_vector("hs", 2), 1.0);    // one wall collision
+  EXPECT_NEAR(lmp.compute_vector("red", 2), -10.0, 1e-9);
+  for (int k : {0, 1, 3, 4, 5}) EXPECT_EQ(lmp.compute_vector("red", k), 0.0) << k;
+  EXPECT_NEAR(lmp.compute_vector("red", 2), -lmp.compute_vector("pv", 2) * 8000.0, 1e-9);
+}
+
+// A dense system under gravity with floor and roof (pair and wall collisions): at every step
+// the per-atom virials summed over the atoms equal minus the global collision virial in all six
+// components, in every order; asking for them changes no trajectory (bitwise).
+TEST(FixHardSphere, PerAtomVirialSumsToTheGlobalOneEveryStep)
+{
+  const std::vector<std::string> base = {"units lj",
+                                         "atom_style sphere",
+                                         "atom_modify map array",
+                                         "boundary p p f",
+                                         "region box block 0 11 0 11 0 11",
+                                         "create_box 1 box",
+                                         "lattice sc 0.75131480090157776 origin 0.5 0.5 0.5",
+                                         "region fill block 0 11 0 11 0 4.4 units box",
+                                         "create_atoms 1 region fill",
+                                         "set type 1 diameter 1.0",
+                                         "set type 1 density 1.9",
+                                         "velocity all create 4.0 4928459 loop geom",
+                                         "comm_modify cutoff 3.5",
+                                         "neigh_modify every 1 delay 0 check yes",
+                                         "fix 1 all nve/sphere",
+                                         "fix g all gravity 1.0 vector 0 0 -1",
+                                         "thermo_modify norm no",
+                                         "timestep 0.01"};
+  for (const char *order : {"serial", "parallel", "parallel windows 5"}) {
+    std::vector<double> x[2];
+    for (int with = 0; with < 2; ++with) {
+      Lammps lmp;
+      lmp.commands(base);
+      lmp.commands({std::string("fix hs all hardsphere restitution 0.95 wall zlo 0.9 wall zhi "
+                                "1.0 order ") +
+                    order});
+      if (with) {
+        lmp.commands(
+            {"compute s all stress/atom NULL fix",
+             "compute red all reduce sum c_s[1] c_s[2] c_s[3] c_s[4] c_s[5] c_s[6]",
+             "compute pv all pressure NULL virial",
+             "variable d equal abs(c_red[1]+c_pv[1]*vol)+abs(c_red[2]+c_pv[2]*vol)+abs(c_red[3]+"
+             "c_pv[3]*vol)+abs(c_red[4]+c_pv[4]*vol)+abs(c_red[5]+c_pv[5]*vol)+abs(c_red[6]+c_pv["
+             "6]*vol)",
+             "variable m equal abs(c_red[1])+abs(c_red[2])+abs(c_red[3])+abs(c_red[4])",
+             "variable z equal abs(c_red[3])", "fix avg all ave/time 1 300 300 v_d v_m v_z"});
+      }
+      lmp.commands({"run 300"});
+      x[with] = lmp.gather("x", 3);
+      if (with) {
+        const double d = lmp.fix_vector("avg", 0), m = lmp.fix_vector("avg", 1);
+        EXPECT_GT(m, 1.0) << order;
+        EXPECT_GT(lmp.fix_vector("avg", 2), 0.0) << order;
+        EXPECT_LT(d, 1e-12 * m) << order;
+        std::printf("[ HS       ] per-atom virial, order %s: mean |sum - global| %.3g of mean "
+                    "|sum| %.6g over 300 steps\n",
+                    order, d, m);
+      }
+    }
+    EXPECT_EQ(max_abs_diff(x[0], x[1]), 0.0) << order;
+  }
+}
+
 // 400 spheres in a box with floor and roof under gravity, 3000 steps: after every step no pair
 // is closer than its contact distance by more than 1e-9 of it (the fix's overlap check, which
 // stops the run, is that test; the final state is checked here too), tens of thousands of
@@ -318,6 +435,81 @@ TEST(FixHardSphere, DenseRunHasNoOverlapsAndSerialEqualsParallel)
   EXPECT_EQ(windows[2], 1.0);
   EXPECT_EQ(windows[3], 5.0);
   EXPECT_LE(largest[3], largest[2]);
+}
+
+// Issue 12 item 8: diameters 1 and 10 run with LAMMPS's defaults (no 'neigh_modify one', no
+// 'comm_modify cutoff'): the fix requests no neighbor list (its own candidate search follows
+// each atom's size and speed) and raises the ghost cutoff itself.  Four big spheres among
+// about 6000 small ones under gravity, floor and roof: no error, collisions between small and
+// big spheres, no overlap at the end (all pairs, each with its own contact distance), and a
+// few candidate pairs per atom, not the hundreds a big-sphere cutoff would give.  (The search's
+// cells still follow the big spheres, so its cost does: doc/fix_hardsphere.md.)
+TEST(FixHardSphere, SizeRatioTenRunsWithDefaults)
+{
+  Lammps lmp;
+  lmp.commands({"units lj",
+                "atom_style sphere",
+                "atom_modify map array",
+                "boundary p p f",
+                "region box block 0 44 0 44 0 30",
+                "create_box 2 box",
+                "region s1 sphere 11 11 6 5.6 units box",
+                "region s2 sphere 33 11 6 5.6 units box",
+                "region s3 sphere 11 33 6 5.6 units box",
+                "region s4 sphere 33 33 6 5.6 units box",
+                "region notbig union 4 s1 s2 s3 s4 side out",
+                "region slab block 0 44 0 44 0 12 units box",
+                "region small intersect 2 slab notbig",
+                "lattice sc 0.2962962962962963 origin 0.5 0.5 0.5",
+                "create_atoms 1 region small",
+                "create_atoms 2 single 11 11 6 units box",
+                "create_atoms 2 single 33 11 6 units box",
+                "create_atoms 2 single 11 33 6 units box",
+                "create_atoms 2 single 33 33 6 units box",
+                "set type 1 diameter 1.0",
+                "set type 2 diameter 10.0",
+                "set type * density 1.0",
+                "velocity all create 2.0 87287 loop geom",
+                "fix 1 all nve/sphere",
+                "fix g all gravity 1.0 vector 0 0 -1"});
+#if HSGPU_LAMMPS_VERSION < 20220324
+  lmp.commands({"neigh_modify delay 0"});    // LAMMPS's default before 2022 was delay 10
+#endif
+  lmp.commands({"fix hs all hardsphere restitution 0.9 wall zlo 0.9 wall zhi 1.0",
+                "thermo_modify norm no", "timestep 0.005", "run 100"});
+  const long n = lmp.natoms();
+  EXPECT_GT(n, 5000);
+  const double coll = lmp.fix_vector("hs", 1), walls = lmp.fix_vector("hs", 2);
+  const double cand = lmp.fix_vector("hs", 20);
+  const double t_step = lmp.fix_vector("hs", 19) / 100.0;
+  EXPECT_GT(coll, 1000.0);
+  EXPECT_GT(walls, 0.0);
+  // Candidate pairs of the last step per atom: a cutoff of the big spheres' contact distance
+  // (plus the step's reach) would give several hundred.
+  EXPECT_GT(cand, 0.0);
+  EXPECT_LT(cand / n, 10.0);
+  const auto x = lmp.gather("x", 3), rad = lmp.gather("radius", 1);
+  double worst = 1e300, worst_big = 1e300;
+  for (long i = 0; i < n; ++i)
+    for (long j = i + 1; j < n; ++j) {
+      double r2 = 0.0;
+      for (int d = 0; d < 3; ++d) {
+        double dx = x[3 * i + d] - x[3 * j + d];
+        if (d < 2) dx -= 44.0 * std::round(dx / 44.0);
+        r2 += dx * dx;
+      }
+      const double s = rad[i] + rad[j];
+      if (r2 > 4.0 * s * s) continue;
+      const double gap = (std::sqrt(r2) - s) / s;
+      worst = std::min(worst, gap);
+      if (rad[i] != rad[j]) worst_big = std::min(worst_big, gap);
+    }
+  EXPECT_GT(worst, -1e-9);
+  EXPECT_LT(worst_big, 1e-3) << "no small sphere near a big one: nothing tested";
+  std::printf("[ HS       ] diameters 1 and 10: %ld spheres, 100 steps, %.0f collisions, %.0f "
+              "wall collisions, %.2f candidate pairs per atom, %.3g ms per step (fix), closest "
+              "pair %.3g of contact from it (small-big %.3g)\n",
+              n, coll, walls, cand / n, 1e3 * t_step, worst, worst_big);
 }
 
 TEST(FixHardSphere, RestartContinuationEqualsUninterruptedRun)

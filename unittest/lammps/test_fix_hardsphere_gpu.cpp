@@ -186,3 +186,42 @@ TEST(FixHardSphereGpu, LennardJonesForcesEqualsCpu)
                      "timestep 0.005", "group spheres type 1"});
   expect_gpu_equals_cpu("lj/cut", s, "fix hs spheres hardsphere", "run 400", 2000);
 }
+
+// Per-atom virial with 'gpu yes': the steps that ask for it (here every 7th, through fix
+// ave/time) run on the host with the CPU backend, the others on the device; the trajectory is
+// still the CPU backend's bit for bit, and on those steps the per-atom virials summed over the
+// atoms equal minus the global collision virial.
+TEST(FixHardSphereGpu, PerAtomVirialStepsOnTheHostEqualCpu)
+{
+  if (HSGPU::GPU::device_count() == 0) GTEST_SKIP() << "no CUDA device on this machine";
+  std::vector<std::string> s = lattice3d();
+  s.insert(s.end(),
+           {"compute st all stress/atom NULL fix",
+            "compute red all reduce sum c_st[1] c_st[2] c_st[3] c_st[4] c_st[5] c_st[6]",
+            "compute pv all pressure NULL virial",
+            "variable d equal abs(c_red[1]+c_pv[1]*vol)+abs(c_red[2]+c_pv[2]*vol)+abs(c_red[3]+"
+            "c_pv[3]*vol)",
+            "variable m equal abs(c_red[1])+abs(c_red[2])+abs(c_red[3])",
+            "fix avg all ave/time 7 20 140 v_d v_m"});
+  double d[2], m[2];
+  std::vector<double> x[2];
+  double resident[2];
+  for (int k = 0; k < 2; ++k) {
+    Lammps lmp;
+    lmp.commands(s);
+    lmp.commands({std::string("fix hs all hardsphere wall zlo 1.0 wall zhi 1.0 reach 0.75") +
+                      (k ? " gpu yes" : ""),
+                  "thermo_modify norm no", "run 140"});
+    x[k] = lmp.gather("x", 3);
+    d[k] = lmp.fix_vector("avg", 0);
+    m[k] = lmp.fix_vector("avg", 1);
+    resident[k] = lmp.fix_vector("hs", 17);
+  }
+  EXPECT_EQ(max_abs_diff(x[0], x[1]), 0.0);
+  EXPECT_GT(m[1], 0.0);
+  EXPECT_LT(d[1], 1e-12 * m[1]);
+  EXPECT_NEAR(m[0], m[1], 1e-12 * m[0]);
+  EXPECT_EQ(resident[0], 0.0);
+  EXPECT_GT(resident[1], 60.0);     // most other steps on the device
+  EXPECT_LE(resident[1], 120.0);    // 20 steps on the host
+}

@@ -24,13 +24,16 @@ struct Snapshot {
   std::vector<double> x, v;
   double f[6];
   double press;
+  double sred[6], pvir[6], wsum[3];    // per-atom virial: sums, -V x the global one, weighted
+  double dmean = 0.0, mmean = 0.0;     // mean |sum - global| and mean |sum| over the steps
 };
 
 // 500 spheres of two sizes in a box periodic in x and y with floor and roof, under gravity.
 // Atoms are placed one by one and their velocities set from their IDs, so that the initial
 // state does not depend on the decomposition (create_atoms on a region numbers atoms per rank,
 // velocity create rescales with a sum over ranks).
-Snapshot run_on(MPI_Comm comm, const std::string &order, int steps, bool pair_gravity = false)
+Snapshot run_on(MPI_Comm comm, const std::string &order, int steps, bool pair_gravity = false,
+                bool peratom = false)
 {
   Lammps lmp(comm);
   lmp.commands({"units lj", "atom_style sphere", "atom_modify map array", "boundary p p f",
@@ -56,8 +59,33 @@ Snapshot run_on(MPI_Comm comm, const std::string &order, int steps, bool pair_gr
                 "wall zhi 1.0 order " +
                     order,
                 "compute p all pressure NULL virial", "thermo_style custom step c_p",
-                "thermo_modify norm no", "timestep 0.01", "run " + std::to_string(steps)});
+                "thermo_modify norm no", "timestep 0.01"});
+  if (peratom)
+    // Per-atom virial at every step (fix ave/time), summed, and weighted by the atom ID so that
+    // values given to the wrong atoms would show.
+    lmp.commands(
+        {"compute s all stress/atom NULL fix",
+         "compute red all reduce sum c_s[1] c_s[2] c_s[3] c_s[4] c_s[5] c_s[6]",
+         "variable w1 atom c_s[1]*id", "variable w3 atom c_s[3]*id", "variable w4 atom c_s[4]*id",
+         "compute wred all reduce sum v_w1 v_w3 v_w4",
+         "variable d equal abs(c_red[1]+c_p[1]*vol)+abs(c_red[2]+c_p[2]*vol)+abs(c_red[3]+c_p[3]*"
+         "vol)+abs(c_red[4]+c_p[4]*vol)+abs(c_red[5]+c_p[5]*vol)+abs(c_red[6]+c_p[6]*vol)",
+         "variable m equal abs(c_red[1])+abs(c_red[2])+abs(c_red[3])",
+         "fix avg all ave/time 1 " + std::to_string(steps) + " " + std::to_string(steps) +
+             " v_d v_m",
+         "thermo_style custom step c_p c_red[1] c_wred[1]"});
+  lmp.commands({"run " + std::to_string(steps)});
   Snapshot s;
+  if (peratom) {
+    const double vol = 11.0 * 11.0 * 11.0;
+    for (int k = 0; k < 6; ++k) {
+      s.sred[k] = lmp.compute_vector("red", k);
+      s.pvir[k] = -lmp.compute_vector("p", k) * vol;
+    }
+    for (int k = 0; k < 3; ++k) s.wsum[k] = lmp.compute_vector("wred", k);
+    s.dmean = lmp.fix_vector("avg", 0);
+    s.mmean = lmp.fix_vector("avg", 1);
+  }
   s.x = lmp.gather("x", 3);
   s.v = lmp.gather("v", 3);
   for (int i = 0; i < 6; ++i) s.f[i] = lmp.fix_vector("hs", i);
@@ -100,7 +128,47 @@ void compare(const std::string &world_order, const std::string &single_order,
   MPI_Barrier(MPI_COMM_WORLD);
 }
 
+// Per-atom virial on several ranks: each rank tallies its own atoms' shares, also of collisions
+// between atoms of different ranks (resolved on every rank); summed over the atoms and ranks it
+// is minus the global collision virial at every step, and at the end the sums and the
+// ID-weighted sums equal those of one rank.
+void compare_peratom(const std::string &world_order, const std::string &single_order)
+{
+  int me = 0, np = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  const int steps = 200;
+  const Snapshot world = run_on(MPI_COMM_WORLD, world_order, steps, false, true);
+  EXPECT_GT(world.mmean, 1.0);
+  EXPECT_LT(world.dmean, 1e-12 * world.mmean);
+  if (me == 0) {
+    const Snapshot single = run_on(MPI_COMM_SELF, single_order, steps, false, true);
+    EXPECT_EQ(max_abs_diff(world.x, single.x), 0.0);
+    EXPECT_LT(single.dmean, 1e-12 * single.mmean);
+    double scale = 0.0;
+    for (int k = 0; k < 3; ++k) scale = std::max(scale, std::fabs(single.sred[k]));
+    EXPECT_GT(scale, 0.0);
+    for (int k = 0; k < 6; ++k) {
+      EXPECT_NEAR(world.sred[k], single.sred[k], 1e-12 * scale) << "component " << k;
+      EXPECT_NEAR(world.sred[k], world.pvir[k], 1e-12 * scale) << "component " << k;
+    }
+    for (int k = 0; k < 3; ++k)
+      EXPECT_NEAR(world.wsum[k], single.wsum[k], 1e-11 * scale * 500.0) << "weighted " << k;
+    std::printf("[ MPI      ] per-atom virial, %d ranks (%s) vs 1 (%s): sum xx %.17g vs %.17g, "
+                "ID-weighted %.17g vs %.17g\n",
+                np, world_order.c_str(), single_order.c_str(), world.sred[0], single.sred[0],
+                world.wsum[0], single.wsum[0]);
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+}
+
 }    // namespace
+
+TEST(FixHardSphereMPI, PerAtomVirialSumsAgreeWithSingleRank)
+{
+  compare_peratom("parallel", "parallel");
+  compare_peratom("serial", "parallel windows 3");
+}
 
 TEST(FixHardSphereMPI, ParallelOrderAgreesWithSingleRank)
 {

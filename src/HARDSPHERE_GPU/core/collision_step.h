@@ -21,6 +21,11 @@
    energy of order m (a dt)^2 / 8, instead of needing infinitely many ever smaller bounces.
    The kinetic energy this changes is counted like a collision's (it can add a little).
 
+   Per-atom virial: where the caller gives a body's accumulator (6 doubles, xx yy zz xy xz yz),
+   a pair collision adds half of its r (x) dp to each of the two bodies' accumulators and a
+   wall collision all of its term to the body's; the sum over bodies is the tally's virial.
+   Where no accumulator is given (nullptr, the default; the device code) nothing changes.
+
    Every function is callable from host and device code (hd.h).  Nothing here depends on
    LAMMPS, MPI or CUDA. */
 #ifndef HSGPU_CORE_COLLISION_STEP_H
@@ -34,9 +39,10 @@
 namespace HSGPU {
 namespace Collide {
 
-  /// Pair collision of bodies i and j (edge e) at time t.
+  /// Pair collision of bodies i and j (edge e) at time t.  wi, wj: the bodies' per-atom
+  /// virial accumulators, or nullptr.
   HSGPU_HD void process_pair(Body &bi, Body &bj, const Edge &e, double t, const Params &p,
-                             Tally &tally)
+                             Tally &tally, double *wi = nullptr, double *wj = nullptr)
   {
     double pi[3], pj[3], r[3];
     drift_position(bi, t, pi);
@@ -84,12 +90,22 @@ namespace Collide {
     tally.virial[3] += r[0] * dp[1];
     tally.virial[4] += r[0] * dp[2];
     tally.virial[5] += r[1] * dp[2];
+    if (wi || wj) {
+      const double half[6] = {0.5 * r[0] * dp[0], 0.5 * r[1] * dp[1], 0.5 * r[2] * dp[2],
+                              0.5 * r[0] * dp[1], 0.5 * r[0] * dp[2], 0.5 * r[1] * dp[2]};
+      for (int k = 0; k < 6; ++k) {
+        if (wi) wi[k] += half[k];
+        if (wj) wj[k] += half[k];
+      }
+    }
     tally.pair++;
     bi.tlast = bj.tlast = t;
   }
 
-  /// Collision of body b with wall face f at time t.
-  HSGPU_HD void process_wall(Body &b, int f, double t, const Params &p, Tally &tally)
+  /// Collision of body b with wall face f at time t.  wb: the body's per-atom virial
+  /// accumulator, or nullptr.
+  HSGPU_HD void process_wall(Body &b, int f, double t, const Params &p, Tally &tally,
+                             double *wb = nullptr)
   {
     const int d = face_dim(f);
     const double s = face_sign(f);
@@ -132,6 +148,7 @@ namespace Collide {
     tally.virial[0] = d == 0 ? tally.virial[0] + w : tally.virial[0];
     tally.virial[1] = d == 1 ? tally.virial[1] + w : tally.virial[1];
     tally.virial[2] = d == 2 ? tally.virial[2] + w : tally.virial[2];
+    if (wb) wb[d] += w;
     tally.wall++;
     b.tlast = t;
   }

@@ -12,6 +12,9 @@
      connected components that cannot influence each other within the step; each component is
      resolved by itself with its own event queue: O((N + events) log) per step.
 
+   Where the caller gives body_virial (6 doubles per body, indexed like the bodies), every
+   event adds its per-atom virial there (collision_step.h); nullptr: not tallied.
+
    Host code (uses the standard library).  Nothing here depends on LAMMPS, MPI or CUDA. */
 #ifndef HSGPU_CORE_EVENT_ORDER_H
 #define HSGPU_CORE_EVENT_ORDER_H
@@ -123,7 +126,7 @@ namespace Collide {
    public:
     /// Resolves the step for all bodies, component by component.
     void resolve_components(std::vector<Body> &bodies, const std::vector<Edge> &edges,
-                            const Params &p, Tally &tally)
+                            const Params &p, Tally &tally, double *body_virial = nullptr)
     {
       const int n = (int) bodies.size();
       uf.reset(n);
@@ -137,7 +140,7 @@ namespace Collide {
       for (int b = 0; b < n; ++b) comp_members[fill[uf.find(b)]++] = b;
       max_component_events =
           resolve_groups(bodies.data(), n, edges.data(), (int) edges.size(), comp_start.data(),
-                         comp_members.data(), n, Contact::never(), p, tally);
+                         comp_members.data(), n, Contact::never(), p, tally, nullptr, body_virial);
     }
 
     /// Resolves the groups comp_members[comp_start[g] .. comp_start[g + 1]) (empty groups
@@ -147,7 +150,7 @@ namespace Collide {
     /// events one group needed.
     long resolve_groups(Body *bodies, int n, const Edge *edges, int nedges, const int *gstart,
                         const int *gmembers, int ngroups, double t_end, const Params &p,
-                        Tally &tally, Tally *per_group = nullptr)
+                        Tally &tally, Tally *per_group = nullptr, double *body_virial = nullptr)
     {
       build_adjacency(n, edges, nedges);
       long most = 0, running = tally.events;
@@ -156,7 +159,8 @@ namespace Collide {
         const int lo = gstart[g], hi = gstart[g + 1];
         if (hi > lo && !tally.capped) {
           tg.events = running;    // the cap counts every group's events
-          const long count = resolve_one(bodies, edges, p, tg, gmembers + lo, hi - lo, t_end);
+          const long count =
+              resolve_one(bodies, edges, p, tg, gmembers + lo, hi - lo, t_end, body_virial);
           tg.events -= running;
           running += tg.events;
           if (count > most) most = count;
@@ -172,7 +176,7 @@ namespace Collide {
 
     /// Resolves the step for all bodies with the seed paper's global loop.
     void resolve_serial(std::vector<Body> &bodies, const std::vector<Edge> &edges, const Params &p,
-                        Tally &tally)
+                        Tally &tally, double *body_virial = nullptr)
     {
       const int n = (int) bodies.size();
       Body *bd = bodies.data();
@@ -191,7 +195,7 @@ namespace Collide {
         }
         const Event ev = best[arg];
         touched.clear();
-        carry_out(bd, ed, p, tally, ev);
+        carry_out(bd, ed, p, tally, ev, body_virial);
         if (ev.face >= 0) {
           touched.push_back(ev.index);
         } else {
@@ -241,13 +245,16 @@ namespace Collide {
     }
 
     static void carry_out(Body *bodies, const Edge *edges, const Params &p, Tally &tally,
-                          const Event &ev)
+                          const Event &ev, double *body_virial)
     {
       if (ev.face >= 0) {
-        process_wall(bodies[ev.index], ev.face, ev.t, p, tally);
+        process_wall(bodies[ev.index], ev.face, ev.t, p, tally,
+                     body_virial ? body_virial + 6 * (size_t) ev.index : nullptr);
       } else {
         const Edge &e = edges[ev.index];
-        process_pair(bodies[e.i], bodies[e.j], e, ev.t, p, tally);
+        process_pair(bodies[e.i], bodies[e.j], e, ev.t, p, tally,
+                     body_virial ? body_virial + 6 * (size_t) e.i : nullptr,
+                     body_virial ? body_virial + 6 * (size_t) e.j : nullptr);
       }
     }
 
@@ -268,7 +275,7 @@ namespace Collide {
     }
 
     long resolve_one(Body *bodies, const Edge *edges, const Params &p, Tally &tally,
-                     const int *members, int nmembers, double t_end)
+                     const int *members, int nmembers, double t_end, double *body_virial)
     {
       heap.clear();
       for (int k = 0; k < nmembers; ++k) {
@@ -288,7 +295,7 @@ namespace Collide {
           tally.capped = 1;
           break;
         }
-        carry_out(bodies, edges, p, tally, ev);
+        carry_out(bodies, edges, p, tally, ev, body_virial);
         ++count;
         if (ev.face >= 0) {
           push_body(bodies, edges, p, ev.index);

@@ -41,6 +41,10 @@ namespace Collide {
     /// Optional (nullptr: not used): group g's tally is stored in group_tally[g] instead of
     /// being added to the caller's, which then only gets `capped`.
     Tally *group_tally = nullptr;
+    /// Optional (nullptr: not used): 6 doubles per body, to which every event adds the
+    /// bodies' per-atom virial (core/collision_step.h).  Only the CPU backend supports it;
+    /// the others refuse work that sets it.
+    double *body_virial = nullptr;
   };
 
   class CollisionBackend {

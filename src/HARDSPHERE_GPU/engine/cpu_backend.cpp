@@ -14,8 +14,8 @@ namespace Collide {
       long resolve(const WindowWork &w, const Params &p, Tally &tally) override
       {
         return resolver.resolve_groups(w.bodies, w.nbodies, w.edges, w.nedges, w.group_start,
-                                       w.group_members, w.ngroups, w.t_end, p, tally,
-                                       w.group_tally);
+                                       w.group_members, w.ngroups, w.t_end, p, tally, w.group_tally,
+                                       w.body_virial);
       }
 
      private:

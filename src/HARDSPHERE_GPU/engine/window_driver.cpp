@@ -285,12 +285,20 @@ namespace Collide {
                  gmembers2.data(),
                  ngr,
                  t1};
+    if (tally_virial) {
+      gvir.assign(6 * (size_t) ng, 0.0);
+      w.body_virial = gvir.data();
+    }
     backend.resolve(w, p, tb);
     for (int k = 0; k < ng; ++k)
       if (gmine[k] >= 0) {
         const int owner = bodies[gmine[k]].owner;
         bodies[gmine[k]] = gbodies[k];
         bodies[gmine[k]].owner = owner;
+        // Resolved from the window start: its window virial is this resolution's.
+        if (tally_virial)
+          std::copy(gvir.begin() + 6 * (size_t) k, gvir.begin() + 6 * (size_t) (k + 1),
+                    wvir.begin() + 6 * (size_t) gmine[k]);
       }
   }
 
@@ -398,6 +406,10 @@ namespace Collide {
       WindowWork w{sub.data(),      (int) sub.size(), subedges.data(), (int) subedges.size(),
                    substart.data(), ident.data(),     nsets,           t1,
                    st.data()};
+      if (tally_virial) {
+        subvir.assign(6 * sub.size(), 0.0);
+        w.body_virial = subvir.data();
+      }
       backend.resolve(w, p, cap);
       repairs += nsets;
       // Back into place; the merged set's tally goes to its root group.
@@ -406,6 +418,9 @@ namespace Collide {
         const int owner = bodies[b].owner;
         bodies[b] = sub[m];
         bodies[b].owner = owner;
+        if (tally_virial)
+          std::copy(subvir.begin() + 6 * m, subvir.begin() + 6 * (m + 1),
+                    wvir.begin() + 6 * (size_t) b);
         double pe[3];
         drift_position(bodies[b], t1, pe);
         note_excursion(bodies[b], pe);
@@ -481,6 +496,8 @@ namespace Collide {
       const int owner = bodies[b].owner;
       bodies[b] = snap[b];
       bodies[b].owner = owner;
+      if (tally_virial)
+        std::fill(wvir.begin() + 6 * (size_t) b, wvir.begin() + 6 * (size_t) (b + 1), 0.0);
     }
     return c[0];
   }
@@ -489,9 +506,10 @@ namespace Collide {
                          const std::vector<ForeignEdge> &fedges,
                          const std::vector<ForeignNode> &foreign, const Params &p,
                          const WindowSettings &s, CollisionBackend &backend, Exchange &ex,
-                         Tally &mine, WindowStats &stats)
+                         Tally &mine, WindowStats &stats, double *body_virial)
   {
     const double dt = p.dt;
+    tally_virial = body_virial != nullptr;
     const int nb = (int) bodies.size();
     long counts[1] = {(long) nb};
     ex.sum(counts, 1);
@@ -529,6 +547,10 @@ namespace Collide {
       WindowWork w{
           bodies.data(), nb, wedges.data(), (int) wedges.size(), gstart.data(), gmembers.data(),
           nlocal_groups, t1, gtally.data()};
+      if (tally_virial) {
+        wvir.assign(6 * (size_t) nb, 0.0);
+        w.body_virial = wvir.data();
+      }
       backend.resolve(w, p, cap);
       excursions(bodies, t1);
       long repairs = 0;
@@ -550,6 +572,8 @@ namespace Collide {
           repairs += joined;
         }
       }
+      if (tally_virial)
+        for (size_t k = 0; k < 6 * (size_t) nb; ++k) body_virial[k] += wvir[k];
       int capped = cap.capped | tbnd.capped;
       long ngroups = 0;
       for (int g = 0; g < nlocal_groups; ++g) {

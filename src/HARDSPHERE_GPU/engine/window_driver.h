@@ -104,10 +104,15 @@ namespace Collide {
    public:
     /// Resolves the step over `bodies`.  `mine` gets the events of local groups and, on rank
     /// 0, those of boundary groups.  The caller still checks the step's displacement budget.
+    /// body_virial (optional; the backend must support WindowWork::body_virial): 6 doubles
+    /// per body, to which each body's per-atom virial of the step is added: half of every
+    /// pair collision's term, all of a wall collision's, counted once whatever was resolved
+    /// again (repairs, boundary gathers).  Pairs in boundary groups add to the local body
+    /// only, so the sum over bodies and ranks is the sum of the ranks' `mine` virials.
     void run(std::vector<Body> &bodies, const std::vector<Edge> &edges,
              const std::vector<ForeignEdge> &fedges, const std::vector<ForeignNode> &foreign,
              const Params &p, const WindowSettings &s, CollisionBackend &backend, Exchange &ex,
-             Tally &mine, WindowStats &stats);
+             Tally &mine, WindowStats &stats, double *body_virial = nullptr);
 
    private:
     WindowChooser chooser;
@@ -134,6 +139,11 @@ namespace Collide {
     std::vector<int> gmine, gstart2, gmembers2;
     std::vector<int> bsent;    // local bodies of the boundary groups of the last gather
     std::vector<double> send, recv;
+    // per-atom virial (when run() is given body_virial): of the window so far, per local
+    // body (replaced where a body is taken back to the window start), of the repair's
+    // compacted bodies and of the gathered boundary bodies
+    bool tally_virial = false;
+    std::vector<double> wvir, subvir, gvir;
 
     long window_edges(std::vector<Body> &bodies, const std::vector<Edge> &edges,
                       const std::vector<ForeignEdge> &fedges,

@@ -17,6 +17,7 @@
 #include "device_info.cuh"
 
 #include <algorithm>
+#include <stdexcept>
 #include <vector>
 
 namespace HSGPU {
@@ -127,6 +128,8 @@ namespace Collide {
     long CudaBackend::resolve(const WindowWork &w, const Params &p, Tally &tally)
     {
       const int n = w.nbodies, ng = w.ngroups;
+      if (w.body_virial)
+        throw std::logic_error("the CUDA collision backend does not tally per-atom virials");
       if (ng <= 0) return 0;
       tallies.assign(ng, Tally());
       // As the CPU backend: once the cap has stopped a step, no group runs (last = -1).
