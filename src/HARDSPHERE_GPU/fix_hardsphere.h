@@ -100,7 +100,7 @@ class FixHardSphere : public Fix {
   double n_repair;           // groups merged and resolved again after a missed contact, in total
   double n_resident;         // steps carried out whole on the device, in total
   double n_declined;         // steps the device handed back to the host, in total
-  double last_candidates;    // candidate pairs of the last step on this rank, -1: on the device
+  double last_candidates;    // candidate pairs of the last step on this rank
   struct RunSummary {        // this run, for the line post_run() logs
     bigint steps = 0;
     double pairs = 0.0, events = 0.0, largest = 0.0, windows = 0.0, groups = 0.0;

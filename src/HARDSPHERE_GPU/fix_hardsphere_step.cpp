@@ -1000,7 +1000,7 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
     return 0;
   }
   all = mine;
-  last_candidates = -1.0;    // the device's search is not counted
+  last_candidates = (double) report.candidates;    // the device's search, the same pairs
   n_resident += 1.0;
   run_sum.resident++;
   n_repair += (double) report.stats.repairs;

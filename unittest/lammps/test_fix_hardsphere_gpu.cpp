@@ -19,7 +19,7 @@ namespace {
 
 struct Result {
   std::vector<double> x, v;
-  std::vector<double> f;    // f_hs[1] .. f_hs[19]
+  std::vector<double> f;    // f_hs[1] .. f_hs[21]
 };
 
 Result run(const std::vector<std::string> &setup, const std::string &fix, const std::string &run)
@@ -30,7 +30,7 @@ Result run(const std::vector<std::string> &setup, const std::string &fix, const 
   Result r;
   r.x = lmp.gather("x", 3);
   r.v = lmp.gather("v", 3);
-  for (int i = 0; i < 19; ++i) r.f.push_back(lmp.fix_vector("hs", i));
+  for (int i = 0; i < 21; ++i) r.f.push_back(lmp.fix_vector("hs", i));
   return r;
 }
 
@@ -61,6 +61,12 @@ void expect_gpu_equals_cpu(const char *name, const std::vector<std::string> &set
   EXPECT_EQ(cpu.f[17] + cpu.f[18], 0.0) << name << ": no device steps on the CPU backend";
   EXPECT_EQ(gpu.f[17] + gpu.f[18], nsteps) << name << ": every step tried on the device";
   EXPECT_GT(gpu.f[17], 0.5 * nsteps) << name << ": most steps carried out on the device";
+  // f_hs[21]: the last step's candidate pairs, from the device's search or the host's (the same
+  // criterion; a step redone with raised bounds may differ).
+  EXPECT_GT(gpu.f[20], 0.0) << name << ": candidate pairs of the device's last step";
+  if (cpu.f[9] == 0.0 && gpu.f[9] == 0.0) {
+    EXPECT_EQ(cpu.f[20], gpu.f[20]) << name;
+  }
   std::printf("[ GPU      ] %s: %.0f collisions, %.0f wall collisions, largest group %.0f, "
               "device %.0f, %.0f of %.0f steps resident (%.0f handed back): max |dx| %.2g "
               "|dv| %.2g\n",
