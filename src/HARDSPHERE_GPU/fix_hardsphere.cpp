@@ -18,7 +18,7 @@
                                         18 steps carried out whole on the device, in total
                                         19 steps the device handed back to the host, in total
                                         20 seconds in the fix's whole step, in total
-                                        21 candidate pairs, last step (ext; -1: on the device)
+                                        21 candidate pairs, last step (ext)
 ------------------------------------------------------------------------------------- */
 
 #include "fix_hardsphere.h"
