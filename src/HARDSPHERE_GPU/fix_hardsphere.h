@@ -172,6 +172,8 @@ class FixHardSphere : public Fix {
   void forward_state(double drift_dt);
   void step_budget();
   void check_budget(double vmax2, double amax, double rmax_seen);
+  /// This step can go to the device-resident step: one rank, no per-atom virial asked for.
+  bool resident_usable() const;
   double step_bound(int i, double drift_dt) const;
   bool gather_bodies(double drift_dt);
   int build(double drift_dt, bool collect_pushes);

@@ -930,6 +930,11 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
   last_gathers = (double) stats.gathers;
 }
 
+bool FixHardSphere::resident_usable() const
+{
+  return resident && comm->nprocs == 1 && !vflag_atom;
+}
+
 /* The whole step on the device (engine/resident_step.h), where there is a resident step:
    with group all, the atoms' arrays up and the atoms that had events back (returns 2); else
    the group's bodies and step bounds up and back (returns 1, apply_results() still to do).
@@ -939,7 +944,7 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
 int FixHardSphere::step_resident(Tally &mine, Tally &all)
 {
   // Per-atom virial: on the host (the device step does not tally it).
-  if (!resident || comm->nprocs > 1 || vflag_atom) return 0;
+  if (!resident_usable()) return 0;
   const double dt = update->dt;
   const double t_start = MPI_Wtime();
   HSGPU::Collide::ResidentBox box;
@@ -955,7 +960,8 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
   HSGPU::Collide::ResidentReport report;
   mine = Tally();
   // Group all: LAMMPS's own arrays go up and the atoms with events come back; else the
-  // group's bodies, gathered here.
+  // group's bodies, gathered here.  (post_integrate() leaves the step budget to the device
+  // in the first case.)
   const bool whole = igroup == 0;
   double t_gather = 0.0;
   try {
@@ -1022,7 +1028,7 @@ void FixHardSphere::post_integrate()
   // step before post_integrate); v_init zeroes vatom then, and sets vflag_atom.
   virial_init(update->vflag_atom == update->ntimestep ? VIRIAL_ATOM : 0);
   // A whole step on the device (one rank, group all) finds the budget's maxima there.
-  if (!(resident && comm->nprocs == 1 && igroup == 0 && !vflag_atom)) step_budget();
+  if (!(resident_usable() && igroup == 0)) step_budget();
   Tally mine, all;
   const int on_device = step_resident(mine, all);
   if (!on_device) {

@@ -826,6 +826,13 @@ namespace Collide {
 
     using Clock = std::chrono::steady_clock;
 
+    /// The number in environment variable `name` (the tuning aids), else `fallback`.
+    double env_number(const char *name, double fallback)
+    {
+      const char *v = std::getenv(name);
+      return v ? std::atof(v) : fallback;
+    }
+
     double seconds_since(Clock::time_point t)
     {
       return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
@@ -1216,9 +1223,7 @@ namespace Collide {
       size_t bytes = 0;
       const thrust::counting_iterator<int> ids(0);
       // Tuning aid: HSGPU_RESIDENT_SMALL=n, the largest group resolved by one thread.
-      static const int small = std::getenv("HSGPU_RESIDENT_SMALL")
-                                   ? std::atoi(std::getenv("HSGPU_RESIDENT_SMALL"))
-                                   : SMALL_GROUP;
+      static const int small = (int) env_number("HSGPU_RESIDENT_SMALL", SMALL_GROUP);
       const IsLarge multi{d_gstart.as<int>(), small};
       cuda_check(cub::DevicePartition::If(nullptr, bytes, ids, d_order.as<int>(),
                                           &scalars()->nmulti, ngroups, multi, stream),
@@ -1339,11 +1344,8 @@ namespace Collide {
       const double dt = p.dt;
       // Tuning aids: HSGPU_RESIDENT_KF and HSGPU_RESIDENT_FLOOR set the window bounds' factor
       // and floor fraction (WindowSettings).
-      static const double kf_env =
-          std::getenv("HSGPU_RESIDENT_KF") ? std::atof(std::getenv("HSGPU_RESIDENT_KF")) : 0.0;
-      static const double floor_env = std::getenv("HSGPU_RESIDENT_FLOOR")
-                                          ? std::atof(std::getenv("HSGPU_RESIDENT_FLOOR"))
-                                          : 0.0;
+      static const double kf_env = env_number("HSGPU_RESIDENT_KF", 0.0);
+      static const double floor_env = env_number("HSGPU_RESIDENT_FLOOR", 0.0);
       // The device's default floor is half the fastest speed (the host driver's a quarter): a
       // repair here resolves the whole window again, and with the wider bounds fewer are
       // needed (measured on an H100: 0.5 against 0.25 is 15-20% faster at N = 65536 and 1e6;
@@ -1352,9 +1354,7 @@ namespace Collide {
       const double speed_floor =
           (floor_env > 0.0 ? floor_env : floor_fraction_or(s, 0.5)) * std::sqrt(vmax2);
       // Tuning aid: HSGPU_RESIDENT_TARGET=n sets the largest group the windows aim at.
-      static const long target_env = std::getenv("HSGPU_RESIDENT_TARGET")
-                                         ? std::atol(std::getenv("HSGPU_RESIDENT_TARGET"))
-                                         : 0;
+      static const long target_env = (long) env_number("HSGPU_RESIDENT_TARGET", 0.0);
       // The device's own default (the windows never change a result bit): largest groups of
       // max(256, n / 1024) bodies, smaller than the host's max(256, n / 128), as the device
       // resolves many more groups at once (measured: 256 ... 1024 within 1% at N = 1e6, 7%
