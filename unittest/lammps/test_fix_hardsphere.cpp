@@ -313,29 +313,40 @@ TEST(FixHardSphere, PerAtomVirialOfAWallBounceIsTheAtoms)
   EXPECT_NEAR(lmp.compute_vector("red", 2), -lmp.compute_vector("pv", 2) * 8000.0, 1e-9);
 }
 
+namespace {
+
+// 400 spheres of diameter 1 on a simple cubic lattice of spacing 1.1 in the lower part of
+// a box with a floor, falling under gravity (the fix hardsphere line is the caller's).
+std::vector<std::string> dense_pile()
+{
+  return {"units lj",
+          "atom_style sphere",
+          "atom_modify map array",
+          "boundary p p f",
+          "region box block 0 11 0 11 0 11",
+          "create_box 1 box",
+          "lattice sc 0.75131480090157776 origin 0.5 0.5 0.5",    // spacing 1.1
+          "region fill block 0 11 0 11 0 4.4 units box",
+          "create_atoms 1 region fill",
+          "set type 1 diameter 1.0",
+          "set type 1 density 1.9",
+          "velocity all create 4.0 4928459 loop geom",
+          "comm_modify cutoff 3.5",
+          "neigh_modify every 1 delay 0 check yes",
+          "fix 1 all nve/sphere",
+          "fix g all gravity 1.0 vector 0 0 -1",
+          "thermo_modify norm no",
+          "timestep 0.01"};
+}
+
+}    // namespace
+
 // A dense system under gravity with floor and roof (pair and wall collisions): at every step
 // the per-atom virials summed over the atoms equal minus the global collision virial in all six
 // components, in every order; asking for them changes no trajectory (bitwise).
 TEST(FixHardSphere, PerAtomVirialSumsToTheGlobalOneEveryStep)
 {
-  const std::vector<std::string> base = {"units lj",
-                                         "atom_style sphere",
-                                         "atom_modify map array",
-                                         "boundary p p f",
-                                         "region box block 0 11 0 11 0 11",
-                                         "create_box 1 box",
-                                         "lattice sc 0.75131480090157776 origin 0.5 0.5 0.5",
-                                         "region fill block 0 11 0 11 0 4.4 units box",
-                                         "create_atoms 1 region fill",
-                                         "set type 1 diameter 1.0",
-                                         "set type 1 density 1.9",
-                                         "velocity all create 4.0 4928459 loop geom",
-                                         "comm_modify cutoff 3.5",
-                                         "neigh_modify every 1 delay 0 check yes",
-                                         "fix 1 all nve/sphere",
-                                         "fix g all gravity 1.0 vector 0 0 -1",
-                                         "thermo_modify norm no",
-                                         "timestep 0.01"};
+  const std::vector<std::string> base = dense_pile();
   for (const char *order : {"serial", "parallel", "parallel windows 5"}) {
     std::vector<double> x[2];
     for (int with = 0; with < 2; ++with) {
@@ -377,25 +388,7 @@ TEST(FixHardSphere, PerAtomVirialSumsToTheGlobalOneEveryStep)
 // collisions; serial and parallel agree bitwise.
 TEST(FixHardSphere, DenseRunHasNoOverlapsAndSerialEqualsParallel)
 {
-  std::vector<std::string> base = {
-      "units lj",
-      "atom_style sphere",
-      "atom_modify map array",
-      "boundary p p f",
-      "region box block 0 11 0 11 0 11",
-      "create_box 1 box",
-      "lattice sc 0.75131480090157776 origin 0.5 0.5 0.5",    // spacing 1.1
-      "region fill block 0 11 0 11 0 4.4 units box",
-      "create_atoms 1 region fill",
-      "set type 1 diameter 1.0",
-      "set type 1 density 1.9",
-      "velocity all create 4.0 4928459 loop geom",
-      "comm_modify cutoff 3.5",
-      "neigh_modify every 1 delay 0 check yes",
-      "fix 1 all nve/sphere",
-      "fix g all gravity 1.0 vector 0 0 -1",
-      "thermo_modify norm no",
-      "timestep 0.01"};
+  std::vector<std::string> base = dense_pile();
   // The default order (adaptive time windows), fixed windows, and the global loop.
   const char *orders[] = {"serial", "parallel", "parallel windows 1", "parallel windows 5"};
   std::vector<double> x[4], v[4];
