@@ -291,6 +291,10 @@ void FixHardSphere::init()
                       "the neighbor list covering every step's moves)");
   if ((bigint) epair.size() != (bigint) (atom->ntypes + 1) * (atom->ntypes + 1))
     error->all(FLERR, "Fix hardsphere: the number of atom types changed; define the fix again");
+  // fix adapt (and adapt/fep) may change diameters and masses on any step.
+  sizes_vary = false;
+  for (int i = 0; i < modify->nfix; ++i)
+    if (utils::strmatch(modify->fix[i]->style, "^adapt")) sizes_vary = true;
   // Collisions are found forward in time within each step, and their virial is the impulses
   // divided by the timestep: a zero, negative or non-finite timestep has no meaning for them.
   // Checked for runs only (minimization does not invoke the fix; write_restart and write_data
@@ -563,6 +567,7 @@ void FixHardSphere::grow_arrays(int nmax)
 {
   // LAMMPS has grown (moved) its per-atom arrays: the device step lets go of the old ones.
   if (resident) resident->forget_host_arrays();
+  resident_same = false;
   memory->grow(tlast, nmax, "hardsphere:tlast");
   // The per-atom virial is computed in post_integrate, before the atoms of that step are
   // exchanged and sorted: it grows, moves and migrates with them (as tlast does) while it

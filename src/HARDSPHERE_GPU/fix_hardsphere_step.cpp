@@ -779,8 +779,10 @@ void FixHardSphere::apply_virial(double dt, bool in_bodies)
 
 void FixHardSphere::setup(int vflag)
 {
-  // Commands between runs may have moved the atom arrays the device step keeps page-locked.
+  // Commands between runs may have moved the atom arrays the device step keeps page-locked,
+  // or changed them.
   if (resident) resident->forget_host_arrays();
+  resident_same = false;
   // The virial and the collision count are the last step's (or the restart file's): the
   // run's first thermo output shows the collisions' share of the pressure, as every later
   // one does.
@@ -943,6 +945,10 @@ bool FixHardSphere::resident_usable() const
    from the same start. */
 int FixHardSphere::step_resident(Tally &mine, Tally &all)
 {
+  // Whatever this step does, the device's copies are current after it only where it is done
+  // there whole.
+  const bool same = resident_same && !sizes_vary;
+  resident_same = false;
   // Per-atom virial: on the host (the device step does not tally it).
   if (!resident_usable()) return 0;
   const double dt = update->dt;
@@ -981,6 +987,7 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
       a.bound_floor = -1.0;    // the device works out the step budget
       a.reach = reach;
       a.never = NEVER_COLLIDED;
+      a.same_atoms = same;
       resident->run_atoms(a, box, step_params(), wsettings, mine, report);
       // The budget's checks, and bound_floor for the host should the device decline.
       check_budget(report.vmax2, report.amax, report.rmax);
@@ -1000,12 +1007,14 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
   t_resolve += report.t_resolve;
   n_redo += (double) report.redone;    // steps the device did again with raised bounds
   run_sum.t_transfer += report.t_upload + report.t_download;
+  run_sum.bytes_up += (double) report.bytes_up;
   if (report.outcome != HSGPU::Collide::ResidentOutcome::done) {
     n_declined += 1.0;
     run_sum.declined[(int) report.outcome]++;
     return 0;
   }
   all = mine;
+  resident_same = whole;
   last_candidates = (double) report.candidates;    // the device's search, the same pairs
   n_resident += 1.0;
   run_sum.resident++;
@@ -1018,6 +1027,12 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
   // With group all the device also shifted every atom's time of last collision to the end of
   // this step.
   return whole ? 2 : 1;
+}
+
+/* Atoms were exchanged or sorted: the device step's copies of their arrays are stale. */
+void FixHardSphere::pre_neighbor()
+{
+  resident_same = false;
 }
 
 void FixHardSphere::post_integrate()
@@ -1106,11 +1121,12 @@ void FixHardSphere::post_run()
     auto back = [&](ResidentOutcome o) { return r.declined[(int) o]; };
     utils::logmesg(lmp,
                    "Fix hardsphere: {} of {} steps carried out whole on the device ({:.4g} s of "
-                   "the search and resolve times copying atoms to the device and back); handed "
-                   "back to the host: {} (overlap at the start), {} (a missed contact), {} "
-                   "(maxevents), {} (a periodic length shorter than three search cells)\n",
-                   r.resident, r.steps, r.t_transfer, back(ResidentOutcome::overlap),
-                   back(ResidentOutcome::excursion), back(ResidentOutcome::capped),
-                   back(ResidentOutcome::small_box));
+                   "the search and resolve times copying atoms to the device and back, {:.4g} "
+                   "MB per step up); handed back to the host: {} (overlap at the start), {} (a "
+                   "missed contact), {} (maxevents), {} (a periodic length shorter than three "
+                   "search cells)\n",
+                   r.resident, r.steps, r.t_transfer, 1e-6 * r.bytes_up / n,
+                   back(ResidentOutcome::overlap), back(ResidentOutcome::excursion),
+                   back(ResidentOutcome::capped), back(ResidentOutcome::small_box));
   }
 }
