@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# MPI scaling of fix hardsphere on the CPU: the fluid of ../shared/scenes/in.fluid (N = 32768,
+# MPI scaling of fix hardsphere on the CPU: the fluid of examples/benchmarks/in.fluid (N = 32768,
 # 50 steps) and examples/hardsphere/in.lattice3d (N = 65536, 100 steps) on 1, 2, 4, 8 ranks
 # (mpirun --bind-to core), the plugin under test three times each (HSGPU_BENCH_REPS) and a
 # baseline plugin once.
@@ -10,7 +10,7 @@
 #   examples/benchmarks/bench_collisions_mpi.sh lmp plugin [baseline] [ranks]
 #
 #   baseline  plugin of an earlier commit ('' or 'none': none); ranks default "1 2 4 8"
-#   HSGPU_SCENES: folder with in.fluid (default ../shared/scenes)
+#   HSGPU_SCENES: folder with in.fluid (default: this folder, examples/benchmarks)
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
@@ -21,7 +21,7 @@ baseline=${3:-}
 [ -n "$baseline" ] && baseline=$(cd "$(dirname "$baseline")" && pwd)/$(basename "$baseline")
 ranks=${4:-1 2 4 8}
 reps=${HSGPU_BENCH_REPS:-3}
-scenes=${HSGPU_SCENES:-$root/../shared/scenes}
+scenes=${HSGPU_SCENES:-$here}
 export OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 export OMPI_MCA_rmaps_base_oversubscribe=1
 work=$(mktemp -d)

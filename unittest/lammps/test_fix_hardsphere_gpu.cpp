@@ -111,7 +111,7 @@ TEST(FixHardSphereGpu, Lattice3dSerialOrderEqualsCpu)
                         "run 100", 10000);
 }
 
-// The fluid scene of the benchmarks (../shared/scenes/in.fluid: packing fraction 0.4,
+// The fluid scene of the benchmarks (examples/benchmarks/in.fluid: packing fraction 0.4,
 // N = 32768, 50 steps).
 TEST(FixHardSphereGpu, FluidSceneEqualsCpu)
 {
