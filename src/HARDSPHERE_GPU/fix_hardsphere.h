@@ -36,7 +36,6 @@ class FixHardSphere : public Fix {
   void init() override;
   void setup(int) override;
   void setup_pre_neighbor() override;
-  void pre_neighbor() override;
   void post_run() override;
   void post_integrate() override;
   double compute_vector(int) override;
@@ -152,11 +151,12 @@ class FixHardSphere : public Fix {
   // The CUDA backend's device-resident step (one rank, parallel order), else null.
   std::unique_ptr<HSGPU::Collide::ResidentStep> resident;
   // The resident step's device copies of tlast, radius, rmass, type and id are current: the
-  // last step was done there whole and no reneighboring (exchange, sort) or host step came
-  // since (ResidentAtoms::same_atoms).
+  // last step was done there whole, and since then no atom moved in the arrays, arrived or
+  // was created (copy_arrays(), unpack_exchange(), set_arrays()), no run started and the host
+  // did no step (ResidentAtoms::same_atoms).
   bool resident_same = false;
-  // A fix that changes radius or mass between reneighborings (fix adapt): those arrays go to
-  // the device every step.
+  // A fix that changes radius, mass or type in place (fix adapt, type swaps): those arrays go
+  // to the device every step.
   bool sizes_vary = false;
   class LammpsExchange *exchange;
   int fwd_nval;                     // forward communication: 0 the state (NFWD), else xfwd's nval

@@ -2,18 +2,21 @@
    HARDSPHERE_GPU: fix hardsphere, the step (see fix_hardsphere.h).
 
    post_integrate():
-     1. displacement budget D for the step (2 x the fastest drift, plus the bow), checked
-        against the reach the ghost atoms cover;
+     1. each atom's displacement bound for the step (twice its own drift |v| dt, at least a
+        floor of half the fastest atom's drift and bow, at most the reach the ghost atoms
+        cover), the fastest atom checked against that reach;
      2. forward communication of the owners' positions and velocities to the ghosts;
      3. bodies for the owned atoms (start points X0 = x - vh dt), candidate pairs whose start
-        points are within contact + 2 D (the fix's own cell search over owned and ghost atoms,
-        nearest image), overlap check (error or push);
+        points are within their two radii plus their two bounds (the fix's own cell search
+        over owned and ghost atoms, nearest image), overlap check (error or push);
      4. the step driver (engine/window_driver.h) resolves the step in time windows, each
         split into groups that cannot influence each other; groups that reach a ghost owned
         by another rank are gathered from all ranks and resolved identically on every rank.
-        With 'order serial': the seed paper's global loop over all of this rank's bodies
-        (several ranks: over all bodies, gathered);
-     5. check that nobody moved further than D (else redo with a larger D);
+        With 'order serial': the seed paper's global loop (Hawick and Playne 2011, see
+        README) over all of this rank's bodies (several ranks: over all bodies, gathered);
+     5. check that no pair outside the candidates could have touched (an atom moved further
+        than its bound and, with its partner, at least their gap); if one could, raise those
+        atoms' bounds and redo the step;
      6. positions and half-step velocities back to the atoms, counters, virial; on steps
         where LAMMPS asks for per-atom virials (update->vflag_atom, set by Integrate::ev_set
         before post_integrate) also those: half of each pair collision's r (x) dp to each of
@@ -1027,12 +1030,6 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
   // With group all the device also shifted every atom's time of last collision to the end of
   // this step.
   return whole ? 2 : 1;
-}
-
-/* Atoms were exchanged or sorted: the device step's copies of their arrays are stale. */
-void FixHardSphere::pre_neighbor()
-{
-  resident_same = false;
 }
 
 void FixHardSphere::post_integrate()
