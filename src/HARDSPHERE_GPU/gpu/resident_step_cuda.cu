@@ -1374,6 +1374,10 @@ namespace Collide {
                              d_adj.as<int>(),     d_best.as<Event>(), d_joined.as<unsigned char>()};
       WindowStats &stats = report.stats;
       double t0 = 0.0;
+      // Tuning aid: HSGPU_RESIDENT_GROW=g, how much longer than the last window the next one
+      // starts.
+      static const double grow_env = env_number("HSGPU_RESIDENT_GROW", 2.0);
+      chooser.set_growth(grow_env);
       chooser.start_step(dt);
       int k = 0;
       auto decline = [&](ResidentOutcome o) {
