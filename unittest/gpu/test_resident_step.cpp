@@ -8,6 +8,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 using namespace hsgpu_test;
 
 TEST(ResidentStepCuda, EqualsSerialBitwise)
@@ -247,6 +249,13 @@ TEST(ResidentStepCuda, KeepsUnchangedArraysOnTheDevice)
     ResidentReport rep;
     r.rs->run_atoms(a, box, p, s, t, rep);
     EXPECT_EQ(rep.outcome, ResidentOutcome::done);
+    // The largest squared speed at the step end, as the host's apply_results() finds it.
+    double vend2 = 0.0;
+    for (int i = 0; i < n; ++i) {
+      const double *w = &r.v[3 * i];
+      vend2 = std::max(vend2, w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+    }
+    EXPECT_EQ(rep.vend2, vend2);
     r.pairs += t.pair;
     r.bytes_up.push_back(rep.bytes_up);
   };

@@ -128,6 +128,7 @@ namespace Collide {
       int changed;                    // bodies with events, compacted for the download
       unsigned long long rmax;        // bits of the largest radius
       unsigned long long maxexc;      // bits of the largest excursion in the step
+      unsigned long long vend2;       // bits of the largest |v|^2 at the step end
       int candidates;                 // candidate pairs
       int nmulti;                     // groups of two or more bodies (the rest: single bodies)
       int next_group;                 // resolve_kernel's next group to take
@@ -620,17 +621,19 @@ namespace Collide {
     struct ExcursionSum {
       double most;
       int beyond;
+      double v2;    // largest squared speed at the step end
     };
     struct ExcursionOp {
       __device__ ExcursionSum operator()(const ExcursionSum &a, const ExcursionSum &b) const
       {
-        return ExcursionSum{fmax(a.most, b.most), a.beyond + b.beyond};
+        return ExcursionSum{fmax(a.most, b.most), a.beyond + b.beyond, fmax(a.v2, b.v2)};
       }
     };
 
     // Launch: blocks of TILE threads, one thread per body.  The end of the step: excursion
     // noted at dt (as end_of_step() does) and kept in exc[b]; s->excursion counts bodies
-    // beyond their step bound, s->maxexc the largest excursion (one atomic per block each).
+    // beyond their step bound, s->maxexc the largest excursion, s->vend2 the largest squared
+    // speed (the host's apply_results() formula; one atomic per block each).
     __global__ void __launch_bounds__(TILE)
         end_kernel(Body *bodies, int n, double dt, const double *__restrict__ bound, double *exc,
                    Scalars *s)
@@ -640,7 +643,7 @@ namespace Collide {
       __shared__ Body tile[TILE];
       load_tile(bodies, n, tile);
       const int b = blockIdx.x * TILE + threadIdx.x;
-      ExcursionSum mine{0.0, 0};
+      ExcursionSum mine{0.0, 0, 0.0};
       if (b < n) {
         Body &bd = tile[threadIdx.x];
         const double exc2 = bd.exc2, wexc2 = bd.wexc2;
@@ -651,11 +654,13 @@ namespace Collide {
         if (bd.wexc2 != wexc2) bodies[b].wexc2 = bd.wexc2;
         const double e = sqrt(bd.exc2);
         exc[b] = e;
-        mine = ExcursionSum{e, e > bound[b] ? 1 : 0};
+        const double *v = bd.v;
+        mine = ExcursionSum{e, e > bound[b] ? 1 : 0, v[0] * v[0] + v[1] * v[1] + v[2] * v[2]};
       }
       mine = Reduce(scratch).Reduce(mine, ExcursionOp());
       if (threadIdx.x != 0) return;
       atomic_max_bits(&s->maxexc, mine.most);
+      atomic_max_bits(&s->vend2, mine.v2);
       if (mine.beyond) atomicAdd(&s->excursion, mine.beyond);
     }
 
@@ -1482,12 +1487,14 @@ namespace Collide {
 
       zero(&scalars()->excursion);
       zero(&scalars()->maxexc);
+      zero(&scalars()->vend2);
       zero(&scalars()->missed_step);
       end_kernel<<<nblocks(n, TILE), TILE, 0, stream>>>(
           d_bodies.as<Body>(), n, dt, d_bound.as<double>(), d_lexc.as<double>(), scalars());
       launched("end_kernel");
       count_changed();    // read back with the step's check, in one round trip
       const Scalars &es = download_scalars();
+      std::memcpy(&report.vend2, &es.vend2, sizeof(double));
       if (es.excursion > 0) {
         double maxexc, rmax;
         std::memcpy(&maxexc, &es.maxexc, sizeof(double));
