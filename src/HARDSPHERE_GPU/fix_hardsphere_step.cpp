@@ -135,7 +135,10 @@ void FixHardSphere::step_budget()
 }
 
 /* The checks of step_budget() on the maxima over the group's atoms (found on the host, or by
-   the resident step on the device): largest squared speed, acceleration and radius. */
+   the resident step on the device): largest squared speed, acceleration and radius.  Sets the
+   step's reach: reach_base, or, where the fastest atom may move further, all that the ghost
+   atoms cover (ghost_reach()); whether the atoms stayed within it is the step's own check
+   (step_exact(): an atom rattling fast in a narrow gap moves far less than its speed says). */
 void FixHardSphere::check_budget(double vmax2, double amax, double rmax_seen)
 {
   if (rmax_seen > rmax * (1.0 + 1e-12))
@@ -145,16 +148,102 @@ void FixHardSphere::check_budget(double vmax2, double amax, double rmax_seen)
                rmax_seen, rmax);
   const double dt = update->dt;
   const double least = HSGPU::Collide::step_least(vmax2, amax, dt);
-  if (least > reach)
-    error->all(FLERR,
-               "Fix hardsphere: atoms move up to {:.6g} per step (speed {:.6g}, timestep {:.6g}), "
-               "more than the reach {:.6g} its ghost atoms cover: reduce the timestep, or raise "
-               "the fix's 'reach' keyword",
-               least, std::sqrt(vmax2), dt, reach);
+  reach = least > reach_base ? std::max(reach_base, ghost_reach()) : reach_base;
+  step_vmax2 = vmax2;
+  step_amax = amax;
   // Every atom's step bound is at least half the fastest drift: an atom at rest that is hit
   // moves about as far as what hit it, and a bound of zero would make the step's check fail
   // (and the step be redone) each time.
   bound_floor = 0.5 * least;
+}
+
+/* The largest reach that a periodic box allows: a pair must be found through one periodic
+   image only, so every periodic length must exceed twice 2 rmax + 2 reach. */
+double FixHardSphere::periodic_reach() const
+{
+  double most = 1e300;
+  for (int d = 0; d < domain->dimension; ++d)
+    if (domain->periodicity[d]) most = std::min(most, (0.25 - 1e-12) * domain->prd[d] - rmax);
+  return most;
+}
+
+/* The largest reach the ghost atoms cover now (the same on every rank): an owned atom's
+   partners lie within 2 rmax + 2 reach of it at the step start, and every atom has moved less
+   than half the neighbor skin since the ghosts were made (LAMMPS's distance check), so
+   2 rmax + 2 reach + skin must fit within the communication cutoff; at most periodic_reach(). */
+double FixHardSphere::ghost_reach() const
+{
+  double cut = 1e300;
+  for (int d = 0; d < domain->dimension; ++d) cut = std::min(cut, comm->cutghost[d]);
+  return std::min(periodic_reach(), 0.5 * (cut - neighbor->skin - 2.0 * rmax));
+}
+
+/* After a step: `drift` is how far the fastest atom would move in the next step at its
+   current speed.  Where that comes within half of what the ghost atoms cover, the fix asks
+   LAMMPS to reneighbor at the end of this step and raises the ghost cutoff there
+   (pre_exchange()), to twice that drift and at least 1.5 times the present reach, as far as a
+   periodic box allows.  Decided from quantities summed over the ranks: the same on all. */
+void FixHardSphere::plan_ghost_raise(double drift)
+{
+  const double cap = ghost_reach();
+  if (!(drift > 0.5 * cap)) return;
+  const double target = std::min(periodic_reach(), std::max(2.0 * drift, 1.5 * cap));
+  if (!(target > cap)) return;    // a periodic box allows no more: the steps check themselves
+  reach_raise = target;
+  raise_drift = drift;
+  next_reneighbor = update->ntimestep;
+}
+
+/* At a reneighboring the fix asked for: the ghost cutoff raised to cover reach_raise (the
+   communication and neighbor bins set up again, as LAMMPS does when the box changes), before
+   the atoms are exchanged and the ghosts made. */
+void FixHardSphere::pre_exchange()
+{
+  if (!(reach_raise > 0.0) || update->ntimestep != next_reneighbor) return;
+  const double need = 2.0 * rmax + 2.0 * reach_raise + neighbor->skin;
+  if (comm->cutghostuser < need) {
+    comm->cutghostuser = need;
+    comm->setup();
+    if (neighbor->style) neighbor->setup_bins();
+    n_ghost_raise += 1.0;
+    if (comm->me == 0)
+      utils::logmesg(lmp,
+                     "Fix hardsphere: communication cutoff raised to {:.8g} at step {} (atoms "
+                     "move up to {:.6g} per step; 2*max radius {:.8g} + 2*reach {:.8g} + neighbor "
+                     "skin {:.8g})\n",
+                     need, update->ntimestep, raise_drift, 2.0 * rmax, 2.0 * reach_raise,
+                     neighbor->skin);
+  }
+  reach_raise = 0.0;
+  next_reneighbor = -1;
+}
+
+/* Stops the run: an atom moved `moved` in this step, more than the ghost atoms cover; the
+   message says what to set. */
+void FixHardSphere::reach_error(double moved, const char *what)
+{
+  const double most = periodic_reach();
+  if (moved > most) {
+    int dim = 0;
+    for (int d = 0; d < domain->dimension; ++d)
+      if (domain->periodicity[d] &&
+          (!domain->periodicity[dim] || domain->prd[d] < domain->prd[dim]))
+        dim = d;
+    error->all(FLERR,
+               "Fix hardsphere: {} {:.6g} in one step (step {}), more than the periodic box "
+               "length {:.6g} along {} lets the fix cover ({:.6g}: twice 2*max radius + 2*reach "
+               "must stay below the box length): reduce the timestep",
+               what, moved, update->ntimestep, domain->prd[dim], "xyz"[dim], most);
+  }
+  double cut = 1e300;
+  for (int d = 0; d < domain->dimension; ++d) cut = std::min(cut, comm->cutghost[d]);
+  error->all(FLERR,
+             "Fix hardsphere: {} {:.6g} in one step (step {}), more than the {:.6g} its ghost "
+             "atoms cover (communication cutoff {:.6g}); the fix raises the ghost cutoff as moves "
+             "approach it, but this one came within a step: set the fix's 'reach' to at least "
+             "{:.6g} (or 'comm_modify cutoff' to at least {:.6g}), or reduce the timestep",
+             what, moved, update->ntimestep, ghost_reach(), cut, moved,
+             2.0 * rmax + 2.0 * moved + neighbor->skin);
 }
 
 /* The bodies of the group's owned atoms at their start points x - v drift_dt.  Returns true
@@ -728,9 +817,11 @@ void FixHardSphere::apply_results(double dt, bool in_bodies)
 {
   double **x = atom->x, **v = atom->v;
   double xe[3], ve[3];
+  vend2 = 0.0;
   auto put = [&](Body &b, int i) {
     if (b.nevents > 0) {
       HSGPU::Collide::end_of_step(b, dt, xe, ve);
+      vend2 = std::max(vend2, ve[0] * ve[0] + ve[1] * ve[1] + ve[2] * ve[2]);
       for (int d = 0; d < 3; ++d) {
         x[i][d] = xe[d];
         v[i][d] = ve[d];
@@ -805,7 +896,8 @@ void FixHardSphere::setup(int vflag)
    of it moved further than its bound and the two moved at least the pair's gap (at their
    start points) together.  The bodies of such pairs get their bound raised to twice their
    excursion, and the step is redone.  Returns true when the step is exact.  An atom that moved
-   further than the reach the ghost atoms cover stops the run. */
+   further than the step's reach raises it to all that the ghost atoms cover; further than
+   that stops the run (reach_error()). */
 bool FixHardSphere::step_exact()
 {
   const int nb = (int) bodies.size();
@@ -824,12 +916,12 @@ bool FixHardSphere::step_exact()
     if (bexc[b] > sbound[b]) loc[1] = 1.0;
   }
   MPI_Allreduce(loc, glob, 2, MPI_DOUBLE, MPI_MAX, world);
-  if (glob[0] > reach)
-    error->all(FLERR,
-               "Fix hardsphere: collisions sent an atom {:.6g} in one step, more than the reach "
-               "{:.6g} its ghost atoms cover: reduce the timestep, or raise the fix's 'reach' "
-               "keyword",
-               glob[0], reach);
+  if (glob[0] > reach) {
+    // Beyond this step's reach: all that the ghosts cover, or stop.
+    const double cap = ghost_reach();
+    if (glob[0] > cap) reach_error(glob[0], "an atom moved");
+    reach = std::max(reach, cap);
+  }
   if (glob[1] == 0.0) return true;
   if (comm->nprocs > 1) exchange->to_foreign(bexc, 1, fexc);
 
@@ -1027,6 +1119,9 @@ void FixHardSphere::post_integrate()
   // Per-atom virial on the steps LAMMPS asks for it (Integrate::ev_set sets vflag_atom to the
   // step before post_integrate); v_init zeroes vatom then, and sets vflag_atom.
   virial_init(update->vflag_atom == update->ntimestep ? VIRIAL_ATOM : 0);
+  // The default event cap follows the atoms present (fix pour or fix deposit may have added
+  // some since the run started, into a group that may have been empty then).
+  if (maxevents_user <= 0) maxevents = 1000 + 100 * atom->natoms;
   // A whole step on the device (one rank, group all) finds the budget's maxima there.
   if (!(resident_usable() && igroup == 0)) step_budget();
   Tally mine, all;
@@ -1053,7 +1148,15 @@ void FixHardSphere::post_integrate()
   }
 
   // 2: the device wrote the atoms itself; 1: its results are in bodies.
+  vend2 = 0.0;
   if (on_device != 2) apply_results(dt, on_device == 1 || !serial_order);
+  // The next step's drift at the atoms' speeds now (after a step on the device with group
+  // all: at the step's start): the ghost cutoff is raised ahead of it where needed.
+  {
+    double v2 = std::max(step_vmax2, vend2), gv2 = 0.0;
+    MPI_Allreduce(&v2, &gv2, 1, MPI_DOUBLE, MPI_MAX, world);
+    plan_ghost_raise(std::sqrt(gv2) * dt + step_amax * dt * dt);
+  }
   if (vflag_atom) {
     apply_virial(dt, !serial_order);
     vatom_step = update->ntimestep;
