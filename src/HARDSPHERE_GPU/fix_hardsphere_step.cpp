@@ -927,20 +927,14 @@ bool FixHardSphere::step_exact()
 
   const int periodic[3] = {domain->xperiodic, domain->yperiodic, domain->zperiodic};
   const double *prd = domain->prd;
-  const double width = search.cell_width();
   int missed = 0;
   std::vector<int> near;
   for (int b = 0; b < nb; ++b) {
     if (!(bexc[b] > sbound[b])) continue;
     const int owner = bodies[b].owner;
-    if (!(bexc[b] + glob[0] + 2.0 * rmax < width)) {
-      // Its partners may lie beyond the cells around it: raise its bound and search again.
-      sboost[owner] = std::max(sboost[owner], 2.0 * bexc[b]);
-      missed = 1;
-      continue;
-    }
+    // Every point it could have touched: within 2 rmax and the two excursions.
     near.clear();
-    search.neighbors(b, near);
+    search.within(b, bexc[b] + glob[0] + 2.0 * rmax * (1.0 + 2.0 * OVERLAP_TOL), near);
     for (int c : near) {
       if (sid[c] == sid[b]) continue;
       const double ec = sbody[c] >= 0 ? bexc[sbody[c]] : fexc[snode[c]];
