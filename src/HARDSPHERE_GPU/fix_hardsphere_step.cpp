@@ -2,8 +2,9 @@
    HARDSPHERE_GPU: fix hardsphere, the step (see fix_hardsphere.h).
 
    post_integrate():
-     1. displacement budget D for the step (2 x the fastest drift, plus the bow), checked
-        against the reach the ghost atoms cover;
+     1. displacement budget D for the step (2 x the fastest drift, plus the bow); where the
+        fastest atom may move further than the reach, the step's reach is all that the ghost
+        atoms cover (ghost_reach());
      2. forward communication of the owners' positions and velocities to the ghosts;
      3. bodies for the owned atoms (start points X0 = x - vh dt), candidate pairs whose start
         points are within contact + 2 D (the fix's own cell search over owned and ghost atoms,
@@ -13,13 +14,17 @@
         by another rank are gathered from all ranks and resolved identically on every rank.
         With 'order serial': the seed paper's global loop over all of this rank's bodies
         (several ranks: over all bodies, gathered);
-     5. check that nobody moved further than D (else redo with a larger D);
+     5. check that nobody moved further than D (else redo with a larger D; beyond what the
+        ghosts cover: stop, naming the reach to set);
      6. positions and half-step velocities back to the atoms, counters, virial; on steps
         where LAMMPS asks for per-atom virials (update->vflag_atom, set by Integrate::ev_set
         before post_integrate) also those: half of each pair collision's r (x) dp to each of
         its two atoms, all of a wall collision's to its atom, each rank to its own atoms.
         Such steps run on the host (not the device-resident step, and with the CPU backend
-        in place of the CUDA one), which gives the same trajectories bit for bit.
+        in place of the CUDA one), which gives the same trajectories bit for bit;
+     7. where the next step at the atoms' present speeds would move one further than half of
+        what the ghosts cover: a reneighboring at the end of this step, at which the ghost
+        cutoff is raised (plan_ghost_raise(), pre_exchange()).
 ------------------------------------------------------------------------------------- */
 
 #include "fix_hardsphere.h"
@@ -1093,6 +1098,7 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
   }
   all = mine;
   last_candidates = (double) report.candidates;    // the device's search, the same pairs
+  if (whole) vend2 = report.vend2;                 // the atoms' speeds at the step end
   n_resident += 1.0;
   run_sum.resident++;
   n_repair += (double) report.stats.repairs;
@@ -1119,6 +1125,7 @@ void FixHardSphere::post_integrate()
   // A whole step on the device (one rank, group all) finds the budget's maxima there.
   if (!(resident_usable() && igroup == 0)) step_budget();
   Tally mine, all;
+  vend2 = 0.0;
   const int on_device = step_resident(mine, all);
   if (!on_device) {
     sboost.assign(atom->nlocal, 0.0);
@@ -1141,11 +1148,12 @@ void FixHardSphere::post_integrate()
     }
   }
 
-  // 2: the device wrote the atoms itself; 1: its results are in bodies.
-  vend2 = 0.0;
+  // 2: the device wrote the atoms itself (and vend2, where it finds it); 1: its results are
+  // in bodies.
   if (on_device != 2) apply_results(dt, on_device == 1 || !serial_order);
   // The next step's drift at the atoms' speeds now (after a step on the device with group
-  // all: at the step's start): the ghost cutoff is raised ahead of it where needed.
+  // all: as the device reports them, else at the step's start): the ghost cutoff is raised
+  // ahead of it where needed.
   {
     double v2 = std::max(step_vmax2, vend2), gv2 = 0.0;
     MPI_Allreduce(&v2, &gv2, 1, MPI_DOUBLE, MPI_MAX, world);
