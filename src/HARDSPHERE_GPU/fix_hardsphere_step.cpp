@@ -349,17 +349,36 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
     sidx[np] = bd.owner;
   }
   const int nsearch = nb;
-  for (int j = nlocal; j < nall; ++j) {
+  // Ghosts too far from every owned body to pair with one are left out: a pair is a candidate
+  // within its radii and two step bounds, and the step's check looks within the radii and two
+  // excursions, each at most what the ghosts cover (ghost_reach()).  The ghost shell follows
+  // the largest sphere; a small ghost needs only its own share of it (diameters 1 and 10).
+  double blo[3] = {1e300, 1e300, 1e300}, bhi[3] = {-1e300, -1e300, -1e300}, rown = 0.0;
+  for (int b = 0; b < nb; ++b) {
+    for (int d = 0; d < 3; ++d) {
+      blo[d] = std::min(blo[d], bodies[b].X0[d]);
+      bhi[d] = std::max(bhi[d], bodies[b].X0[d]);
+    }
+    rown = std::max(rown, bodies[b].radius);
+  }
+  const double keep = rown + 2.0 * ghost_reach();
+  for (int j = nlocal; j < nall && nb > 0; ++j) {
     if (!(mask[j] & groupbit)) continue;
     const double *g = &gdata[(size_t) NFWD * j];
     const int bj = (int) g[7] == me ? body_of[(int) g[8]] : -1;
     const int node = bj < 0 ? foreign_of[j - nlocal] : -1;
     if (bj < 0 && node < 0) continue;
+    double out2 = 0.0;
     for (int d = 0; d < 3; ++d) {
       const double p = g[d] - g[3 + d] * drift_dt;
       sraw[3 * np + d] = p;
       spos[3 * np + d] = periodic[d] ? p + std::nearbyint((x[j][d] - p) / prd[d]) * prd[d] : p;
+      const double e =
+          std::max(std::max(blo[d] - spos[3 * np + d], spos[3 * np + d] - bhi[d]), 0.0);
+      out2 += e * e;
     }
+    const double range = (g[6] + keep) * (1.0 + 1e-9);
+    if (out2 > range * range) continue;
     srad[np] = g[6];
     sbound[np] = g[9];
     sid[np] = tag[j];
