@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Collision benchmark of fix hardsphere: the seed paper's three configurations
 # (examples/hardsphere/in.dilute, in.lattice2d, in.lattice3d) and the fluid of
-# ../shared/scenes/in.fluid (packing fraction 0.4, dt = 0.01), for N = 1024 ... Nmax (doubling;
+# examples/benchmarks/in.fluid (packing fraction 0.4, dt = 0.01), for N = 1024 ... Nmax (doubling;
 # the fluid takes the nearest cube nx^3), side by side in the same run:
 #   - parallel: the default order (time windows, groups, the fix's own candidate search);
 #   - serial:   the seed paper's loop (one globally earliest event at a time), seed
@@ -49,7 +49,7 @@ serialmax=${8:-65536}
 [ -x "$lmp" ] || { echo "no LAMMPS executable '$lmp' (pass it as the first argument)" >&2; exit 2; }
 [ -f "$plugin" ] || { echo "no plugin '$plugin' (pass it as the second argument)" >&2; exit 2; }
 [ -z "$baseline" ] || [ -f "$baseline" ] || { echo "no baseline plugin '$baseline'" >&2; exit 2; }
-scenes=${HSGPU_SCENES:-$root/../shared/scenes}
+scenes=${HSGPU_SCENES:-$here}
 export OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 export OMPI_MCA_rmaps_base_oversubscribe=1
 launcher=()

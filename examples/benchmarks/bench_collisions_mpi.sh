@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# MPI scaling of fix hardsphere on the CPU: the fluid of ../shared/scenes/in.fluid (N = 32768,
+# MPI scaling of fix hardsphere on the CPU: the fluid of examples/benchmarks/in.fluid (N = 32768,
 # 50 steps) and examples/hardsphere/in.lattice3d (N = 65536, 100 steps) on 1, 2, 4, 8 ranks
-# (mpirun --bind-to core), the plugin under test three times each and a baseline plugin once.
+# (mpirun --bind-to core), the plugin under test three times each (HSGPU_BENCH_REPS) and a
+# baseline plugin once.
 # Prints one line per run: LAMMPS's Loop, Modify and Neigh times and the fix's run summary
 # (search and resolve times, groups spanning ranks, gathers); doc/bench_collisions.md takes the
 # median of the three Modify times.
@@ -9,7 +10,7 @@
 #   examples/benchmarks/bench_collisions_mpi.sh lmp plugin [baseline] [ranks]
 #
 #   baseline  plugin of an earlier commit ('' or 'none': none); ranks default "1 2 4 8"
-#   HSGPU_SCENES: folder with in.fluid (default ../shared/scenes)
+#   HSGPU_SCENES: folder with in.fluid (default: this folder, examples/benchmarks)
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
@@ -19,7 +20,8 @@ baseline=${3:-}
 [ "$baseline" = none ] && baseline=
 [ -n "$baseline" ] && baseline=$(cd "$(dirname "$baseline")" && pwd)/$(basename "$baseline")
 ranks=${4:-1 2 4 8}
-scenes=${HSGPU_SCENES:-$root/../shared/scenes}
+reps=${HSGPU_BENCH_REPS:-3}
+scenes=${HSGPU_SCENES:-$here}
 export OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 export OMPI_MCA_rmaps_base_oversubscribe=1
 work=$(mktemp -d)
@@ -40,13 +42,17 @@ run() { # tag np plugin input args...
     "neigh=$(awk '/^Neigh / {print $5}' "log.$tag.$np")" \
     "| $(sed -n 's/^Fix hardsphere (.*steps, //p' "log.$tag.$np")"
 }
-for np in $ranks; do
-  for rep in 1 2 3; do
+# The rank counts take turns within each repetition, so that a slow spell of a shared host
+# weighs on all of them alike.
+for rep in $(seq "$reps"); do
+  for np in $ranks; do
     run fluid "$np" "$plugin" in.fluid -var steps 50
     run lattice3d "$np" "$plugin" in.lattice3d -var N 65536 -var steps 100
   done
-  if [ -n "$baseline" ]; then
+done
+if [ -n "$baseline" ]; then
+  for np in $ranks; do
     run fluid_baseline "$np" "$baseline" in.fluid -var steps 50
     run lattice3d_baseline "$np" "$baseline" in.lattice3d -var N 65536 -var steps 100
-  fi
-done
+  done
+fi

@@ -11,7 +11,7 @@
 #           "lattice3d:65536 lattice3d:262144 lattice3d:1048576 fluid:32 fluid:64 fluid:102
 #            lattice2d:65536 lattice2d:1048576 dilute:65536 dilute:1048576"
 #           config: dilute, lattice2d, lattice3d (examples/hardsphere, size = N) or fluid
-#           (../shared/scenes/in.fluid or $HSGPU_SCENES/in.fluid, size = nx, N = nx^3);
+#           (examples/benchmarks/in.fluid or $HSGPU_SCENES/in.fluid, size = nx, N = nx^3);
 #           steps default 50 (20 from N = 500000)
 #
 # Columns: N; collisions per step; Modify ms/step (LAMMPS's Modify time per step: the fix
@@ -39,7 +39,7 @@ shift $(($# < 3 ? $# : 3))
 cases=("$@")
 [ ${#cases[@]} -gt 0 ] || cases=(lattice3d:65536 lattice3d:262144 lattice3d:1048576 fluid:32
   fluid:64 fluid:102 lattice2d:65536 lattice2d:1048576 dilute:65536 dilute:1048576)
-scenes=${HSGPU_SCENES:-$root/../shared/scenes}
+scenes=${HSGPU_SCENES:-$here}
 export OMP_NUM_THREADS=1
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT

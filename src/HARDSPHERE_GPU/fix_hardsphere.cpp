@@ -299,6 +299,14 @@ void FixHardSphere::init()
                       "the neighbor list covering every step's moves)");
   if ((bigint) epair.size() != (bigint) (atom->ntypes + 1) * (atom->ntypes + 1))
     error->all(FLERR, "Fix hardsphere: the number of atom types changed; define the fix again");
+  // Fixes that change radius, mass or type of atoms in place (fix adapt and adapt/fep on any
+  // step; atom/swap, mol/swap and sgcmc swap types): those arrays go to the device every step.
+  sizes_vary = false;
+  for (int i = 0; i < modify->nfix; ++i)
+    if (utils::strmatch(modify->fix[i]->style, "^adapt") ||
+        utils::strmatch(modify->fix[i]->style, "swap") ||
+        utils::strmatch(modify->fix[i]->style, "^sgcmc"))
+      sizes_vary = true;
   // Collisions are found forward in time within each step, and their virial is the impulses
   // divided by the timestep: a zero, negative or non-finite timestep has no meaning for them.
   // Checked for runs only (minimization does not invoke the fix; write_restart and write_data
@@ -593,6 +601,7 @@ void FixHardSphere::grow_arrays(int nmax)
 {
   // LAMMPS has grown (moved) its per-atom arrays: the device step lets go of the old ones.
   if (resident) resident->forget_host_arrays();
+  resident_same = false;
   memory->grow(tlast, nmax, "hardsphere:tlast");
   // The per-atom virial is computed in post_integrate, before the atoms of that step are
   // exchanged and sorted: it grows, moves and migrates with them (as tlast does) while it
@@ -603,8 +612,11 @@ void FixHardSphere::grow_arrays(int nmax)
   }
 }
 
+/* Atoms are moved in the arrays (a sort, an atom leaving), arrive (exchange) or are created
+   (fix pour, fix deposit): the device step's copies of their arrays are stale. */
 void FixHardSphere::copy_arrays(int i, int j, int)
 {
+  resident_same = false;
   tlast[j] = tlast[i];
   if (vflag_atom)
     for (int k = 0; k < 6; ++k) vatom[j][k] = vatom[i][k];
@@ -612,6 +624,7 @@ void FixHardSphere::copy_arrays(int i, int j, int)
 
 void FixHardSphere::set_arrays(int i)
 {
+  resident_same = false;
   tlast[i] = NEVER_COLLIDED;
   if (vflag_atom && i < maxvatom)
     for (int k = 0; k < 6; ++k) vatom[i][k] = 0.0;
@@ -627,6 +640,7 @@ int FixHardSphere::pack_exchange(int i, double *buf)
 
 int FixHardSphere::unpack_exchange(int nlocal, double *buf)
 {
+  resident_same = false;
   tlast[nlocal] = buf[0];
   if (!vflag_atom) return 1;
   for (int k = 0; k < 6; ++k) vatom[nlocal][k] = buf[1 + k];

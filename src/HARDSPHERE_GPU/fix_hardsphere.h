@@ -117,6 +117,7 @@ class FixHardSphere : public Fix {
     double t_first = 0.0;       // seconds of the run's first step (allocations, page-locking)
     bigint resident = 0;        // steps carried out on the device
     double t_transfer = 0.0;    // seconds copying bodies to the device and back
+    double bytes_up = 0.0;      // bytes of atom arrays copied to the device (whole steps)
     bigint declined[5] = {0, 0, 0, 0, 0};    // steps handed back, by ResidentOutcome
   } run_sum;
 
@@ -157,6 +158,14 @@ class FixHardSphere : public Fix {
   bigint vatom_step;    // step whose per-atom virial vatom holds, -1: none
   // The CUDA backend's device-resident step (one rank, parallel order), else null.
   std::unique_ptr<HSGPU::Collide::ResidentStep> resident;
+  // The resident step's device copies of tlast, radius, rmass, type and id are current: the
+  // last step was done there whole, and since then no atom moved in the arrays, arrived or
+  // was created (copy_arrays(), unpack_exchange(), set_arrays()), no run started and the host
+  // did no step (ResidentAtoms::same_atoms).
+  bool resident_same = false;
+  // A fix that changes radius, mass or type in place (fix adapt, type swaps): those arrays go
+  // to the device every step.
+  bool sizes_vary = false;
   class LammpsExchange *exchange;
   int fwd_nval;                     // forward communication: 0 the state (NFWD), else xfwd's nval
   std::vector<double> xfwd;         // per-atom values for the driver's to_foreign

@@ -2,20 +2,23 @@
    HARDSPHERE_GPU: fix hardsphere, the step (see fix_hardsphere.h).
 
    post_integrate():
-     1. displacement budget D for the step (2 x the fastest drift, plus the bow); where the
+     1. each atom's displacement bound for the step (twice its own drift |v| dt, at least a
+        floor of half the fastest atom's drift and bow, at most the step's reach); where the
         fastest atom may move further than the reach, the step's reach is all that the ghost
         atoms cover (ghost_reach());
      2. forward communication of the owners' positions and velocities to the ghosts;
      3. bodies for the owned atoms (start points X0 = x - vh dt), candidate pairs whose start
-        points are within contact + 2 D (the fix's own cell search over owned and ghost atoms,
-        nearest image), overlap check (error or push);
+        points are within their two radii plus their two bounds (the fix's own cell search
+        over owned and ghost atoms, nearest image), overlap check (error or push);
      4. the step driver (engine/window_driver.h) resolves the step in time windows, each
         split into groups that cannot influence each other; groups that reach a ghost owned
         by another rank are gathered from all ranks and resolved identically on every rank.
-        With 'order serial': the seed paper's global loop over all of this rank's bodies
-        (several ranks: over all bodies, gathered);
-     5. check that nobody moved further than D (else redo with a larger D; beyond what the
-        ghosts cover: stop, naming the reach to set);
+        With 'order serial': the seed paper's global loop (Hawick and Playne 2011, see
+        README) over all of this rank's bodies (several ranks: over all bodies, gathered);
+     5. check that no pair outside the candidates could have touched (an atom moved further
+        than its bound and, with its partner, at least their gap); if one could, raise those
+        atoms' bounds and redo the step; an atom that moved further than the ghosts cover
+        stops the run, naming the reach to set;
      6. positions and half-step velocities back to the atoms, counters, virial; on steps
         where LAMMPS asks for per-atom virials (update->vflag_atom, set by Integrate::ev_set
         before post_integrate) also those: half of each pair collision's r (x) dp to each of
@@ -894,8 +897,10 @@ void FixHardSphere::apply_virial(double dt, bool in_bodies)
 
 void FixHardSphere::setup(int vflag)
 {
-  // Commands between runs may have moved the atom arrays the device step keeps page-locked.
+  // Commands between runs may have moved the atom arrays the device step keeps page-locked,
+  // or changed them.
   if (resident) resident->forget_host_arrays();
+  resident_same = false;
   // The virial and the collision count are the last step's (or the restart file's): the
   // run's first thermo output shows the collisions' share of the pressure, as every later
   // one does.
@@ -1053,6 +1058,10 @@ bool FixHardSphere::resident_usable() const
    from the same start. */
 int FixHardSphere::step_resident(Tally &mine, Tally &all)
 {
+  // Whatever this step does, the device's copies are current after it only where it is done
+  // there whole.
+  const bool same = resident_same && !sizes_vary;
+  resident_same = false;
   // Per-atom virial: on the host (the device step does not tally it).
   if (!resident_usable()) return 0;
   const double dt = update->dt;
@@ -1091,6 +1100,7 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
       a.bound_floor = -1.0;    // the device works out the step budget
       a.reach = reach;
       a.never = NEVER_COLLIDED;
+      a.same_atoms = same;
       resident->run_atoms(a, box, step_params(), wsettings, mine, report);
       // The budget's checks, and bound_floor for the host should the device decline.
       check_budget(report.vmax2, report.amax, report.rmax);
@@ -1110,12 +1120,14 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
   t_resolve += report.t_resolve;
   n_redo += (double) report.redone;    // steps the device did again with raised bounds
   run_sum.t_transfer += report.t_upload + report.t_download;
+  run_sum.bytes_up += (double) report.bytes_up;
   if (report.outcome != HSGPU::Collide::ResidentOutcome::done) {
     n_declined += 1.0;
     run_sum.declined[(int) report.outcome]++;
     return 0;
   }
   all = mine;
+  resident_same = whole;
   last_candidates = (double) report.candidates;    // the device's search, the same pairs
   if (whole) vend2 = report.vend2;                 // the atoms' speeds at the step end
   n_resident += 1.0;
@@ -1230,11 +1242,12 @@ void FixHardSphere::post_run()
     auto back = [&](ResidentOutcome o) { return r.declined[(int) o]; };
     utils::logmesg(lmp,
                    "Fix hardsphere: {} of {} steps carried out whole on the device ({:.4g} s of "
-                   "the search and resolve times copying atoms to the device and back); handed "
-                   "back to the host: {} (overlap at the start), {} (a missed contact), {} "
-                   "(maxevents), {} (a periodic length shorter than three search cells)\n",
-                   r.resident, r.steps, r.t_transfer, back(ResidentOutcome::overlap),
-                   back(ResidentOutcome::excursion), back(ResidentOutcome::capped),
-                   back(ResidentOutcome::small_box));
+                   "the search and resolve times copying atoms to the device and back, {:.4g} "
+                   "MB per step up); handed back to the host: {} (overlap at the start), {} (a "
+                   "missed contact), {} (maxevents), {} (a periodic length shorter than three "
+                   "search cells)\n",
+                   r.resident, r.steps, r.t_transfer, 1e-6 * r.bytes_up / n,
+                   back(ResidentOutcome::overlap), back(ResidentOutcome::excursion),
+                   back(ResidentOutcome::capped), back(ResidentOutcome::small_box));
   }
 }

@@ -178,3 +178,98 @@ TEST(ResidentStepCuda, StepRedoneWithRaisedBoundsIsExact)
   }
   EXPECT_GE(redone, 1) << "the tight bounds needed a second try somewhere";
 }
+
+// run_atoms() keeps tlast, radius, rmass, type and id on the device between steps where the
+// caller says they are unchanged (ResidentAtoms::same_atoms): three steps of a lattice gas give
+// bit for bit what three steps copying everything give, with 72 bytes per atom copied up
+// instead of 104; arrays that moved are copied again whatever the caller says.
+TEST(ResidentStepCuda, KeepsUnchangedArraysOnTheDevice)
+{
+  if (HSGPU::GPU::device_count() == 0) GTEST_SKIP() << "no CUDA device";
+  const int side = 12, n = side * side * side;
+  const double dt = 0.2, spacing = 1.1;
+  std::vector<double> x0(3 * n), v0(3 * n), f(3 * n, 0.0), radius(n, 0.5), rmass(n, 1.0);
+  std::vector<int> type(n, 1), id(n);
+  unsigned seed = 777;
+  auto uniform = [&seed]() {
+    seed = seed * 1103515245u + 12345u;
+    return ((seed >> 8) & 0xffff) / 32768.0 - 1.0;
+  };
+  for (int i = 0; i < n; ++i) {
+    const int c[3] = {i % side, (i / side) % side, i / (side * side)};
+    id[i] = i + 1;
+    for (int d = 0; d < 3; ++d) {
+      v0[3 * i + d] = uniform();
+      x0[3 * i + d] = (c[d] + 0.5) * spacing;
+    }
+  }
+  std::vector<double> epair = {0, 0, 0, 1.0};
+  Params p{};
+  p.dt = dt;
+  p.ntypes = 1;
+  p.epair = epair.data();
+  p.maxevents = 1000000;
+  ResidentBox box;
+  for (int d = 0; d < 3; ++d) {
+    box.lo[d] = 0.0;
+    box.prd[d] = side * spacing;
+    box.periodic[d] = 1;
+  }
+  box.overlap_tol = 1e-9;
+  box.reach = 1.0;
+  WindowSettings s;
+  struct Run {
+    std::unique_ptr<ResidentStep> rs = make_cuda_resident_step(0);
+    std::vector<double> x, v, tlast;
+    long pairs = 0;
+    std::vector<long> bytes_up;
+  };
+  // One step: the drift (x += v dt, as the integrator does between steps), then the device.
+  auto step = [&](Run &r, bool same, const std::vector<double> &rad) {
+    for (int k = 0; k < 3 * n; ++k) r.x[k] += r.v[k] * dt;
+    ResidentAtoms a;
+    a.n = n;
+    a.x = r.x.data();
+    a.v = r.v.data();
+    a.tlast = r.tlast.data();
+    a.f = f.data();
+    a.radius = rad.data();
+    a.rmass = rmass.data();
+    a.type = type.data();
+    a.id = id.data();
+    a.id_bytes = (int) sizeof(int);
+    a.ftm2v = 1.0;
+    a.bound_floor = -1.0;
+    a.reach = box.reach;
+    a.never = -1e30;
+    a.same_atoms = same;
+    Tally t;
+    ResidentReport rep;
+    r.rs->run_atoms(a, box, p, s, t, rep);
+    EXPECT_EQ(rep.outcome, ResidentOutcome::done);
+    r.pairs += t.pair;
+    r.bytes_up.push_back(rep.bytes_up);
+  };
+  Run keep, copy;
+  for (Run *r : {&keep, &copy}) {
+    r->x = x0;
+    r->v = v0;
+    r->tlast.assign(n, -1e30);
+  }
+  for (int k = 0; k < 3; ++k) {
+    step(keep, k > 0, radius);
+    step(copy, false, radius);
+  }
+  EXPECT_GT(keep.pairs, 50) << "enough collisions to mean anything";
+  EXPECT_EQ(keep.pairs, copy.pairs);
+  EXPECT_EQ(0, std::memcmp(keep.x.data(), copy.x.data(), x0.size() * sizeof(double)));
+  EXPECT_EQ(0, std::memcmp(keep.v.data(), copy.v.data(), v0.size() * sizeof(double)));
+  EXPECT_EQ(0, std::memcmp(keep.tlast.data(), copy.tlast.data(), n * sizeof(double)));
+  const long all = 104L * n, moving = 72L * n;
+  EXPECT_EQ(keep.bytes_up, (std::vector<long>{all, moving, moving}));
+  EXPECT_EQ(copy.bytes_up, (std::vector<long>{all, all, all}));
+  // The radii now lie elsewhere: copied up although the caller says nothing changed.
+  const std::vector<double> moved = radius;
+  step(keep, true, moved);
+  EXPECT_EQ(keep.bytes_up.back(), all);
+}

@@ -430,14 +430,15 @@ TEST(FixHardSphere, DenseRunHasNoOverlapsAndSerialEqualsParallel)
   EXPECT_LE(largest[3], largest[2]);
 }
 
-// Issue 12 item 8: diameters 1 and 10 run with LAMMPS's defaults (no 'neigh_modify one', no
-// 'comm_modify cutoff'): the fix requests no neighbor list (its own candidate search follows
-// each atom's size and speed) and raises the ghost cutoff itself.  Four big spheres among
-// about 6000 small ones under gravity, floor and roof: no error, collisions between small and
-// big spheres, no overlap at the end (all pairs, each with its own contact distance), and a
-// few candidate pairs per atom, not the hundreds a big-sphere cutoff would give.  (The
-// search's cells follow the small spheres, the big ones are searched apart: its time per step
-// is printed; examples/hardsphere/in.sizeratio10 measures it, doc/fix_hardsphere.md.)
+// Mixed sizes need no setting by hand: diameters 1 and 10 run with LAMMPS's defaults (no
+// 'neigh_modify one', no 'comm_modify cutoff'): the fix requests no neighbor list (its own
+// candidate search follows each atom's size and speed) and raises the ghost cutoff itself.
+// Four big spheres among about 6000 small ones under gravity, floor and roof: no error,
+// collisions between small and big spheres, no overlap at the end (all pairs, each with its own
+// contact distance), and a few candidate pairs per atom, not the hundreds a big-sphere cutoff
+// would give.  (The search's cells follow the small spheres, the big ones are searched apart:
+// its time per step is printed; examples/hardsphere/in.sizeratio10 measures it,
+// doc/fix_hardsphere.md.)
 TEST(FixHardSphere, SizeRatioTenRunsWithDefaults)
 {
   Lammps lmp;

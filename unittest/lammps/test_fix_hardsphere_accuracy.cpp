@@ -47,7 +47,9 @@ double head_on_restitution(const std::vector<std::string> &collision, double dt,
 
 TEST(FixHardSphereAccuracy, GranHookeRestitutionApproachesTheFixAsItsTimestepShrinks)
 {
-  // NOTES.md section 3: k_n = 2e5, m_eff = 1/2, target e = 0.88.
+  // Soft spheres with restitution e (frictionless gran/hooke, equal masses: m_eff = m/2 = 1/2):
+  // w0 = sqrt(k_n/m_eff), gamma_n = -2 ln(e) w0 / sqrt(pi^2 + ln(e)^2), contact time
+  // t_c = pi / sqrt(w0^2 - gamma_n^2/4); here k_n = 2e5 and target e = 0.88.
   const double e = 0.88, kn = 2e5, meff = 0.5;
   const double w0 = std::sqrt(kn / meff), le = std::log(e);
   const double gamma_n = -2.0 * le * w0 / std::sqrt(M_PI * M_PI + le * le);

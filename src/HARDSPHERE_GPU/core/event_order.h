@@ -5,9 +5,12 @@
    the two bodies' states only (trajectory.h).  So within a set of bodies that interact only
    among themselves the sequence of events, and the arithmetic, are the same in both orders:
 
-   - serial: the seed paper's loop.  Each body keeps its earliest candidate event; every
-     iteration scans all bodies for the globally earliest one, carries it out and recomputes
-     the candidates of the bodies involved and of their neighbours: O(N) per event.
+   - serial: the seed paper's loop (K.A. Hawick and D.P. Playne, "Hard-Sphere Collision
+     Simulations with Multiple GPUs, PCIe Extension Buses and GPU-GPU Communications",
+     Technical Report CSTN-138, Massey University, 2011).  Each body keeps its earliest
+     candidate event; every iteration scans all bodies for the globally earliest one, carries
+     it out and recomputes the candidates of the bodies involved and of their neighbours:
+     O(N) per event.
    - components: the edges (pairs that can touch within the step) split the bodies into
      connected components that cannot influence each other within the step; each component is
      resolved by itself with its own event queue: O((N + events) log) per step.

@@ -67,6 +67,7 @@ namespace Collide {
     // run_atoms(): the step budget's maxima over the atoms (FixHardSphere::step_budget), found
     // on the device: squared speed, acceleration |f| ftm2v / m, radius.
     double vmax2 = 0.0, amax = 0.0, rmax = 0.0;
+    long bytes_up = 0;    // run_atoms(): bytes copied to the device for the step
     // run_atoms() on `done`: the largest squared half-step speed of the atoms at the step's
     // end (after its collisions), for the fix's look ahead at the next step's moves
     // (FixHardSphere::plan_ghost_raise()); 0 where the step does not find it (the fix then
@@ -95,6 +96,11 @@ namespace Collide {
                            // step's own, half of step_least() of the atoms' maxima (the report's)
     double reach;
     double never;    // the least time of last collision (an atom that never collided)
+    // The caller vouches that tlast, radius, rmass, type and id hold what they held at the end
+    // of the last run_atoms() that returned `done` (same atoms in the same order, nothing
+    // written to them since): the step may then keep its device copies instead of copying
+    // them up again.  False is always safe.
+    bool same_atoms = false;
   };
 
   class ResidentStep {

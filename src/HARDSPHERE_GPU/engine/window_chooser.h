@@ -45,7 +45,14 @@ namespace Collide {
     }
 
     /// At the start of a step of length dt.
-    void start_step(double dt) { guess = last_delta > 0.0 ? std::min(2.0 * last_delta, dt) : dt; }
+    void start_step(double dt)
+    {
+      guess = last_delta > 0.0 ? std::min(growth * last_delta, dt) : dt;
+    }
+
+    /// How much longer than the last window the next one starts (2 unless a backend sets it;
+    /// never changes a result bit).
+    void set_growth(double g) { growth = g > 1.0 ? g : 2.0; }
 
     /// The end of window k, which starts at t0.  try_window(t1) sets up the window [t0, t1)
     /// (its edges and groups) and returns its largest group over all ranks; the last call is
@@ -92,7 +99,7 @@ namespace Collide {
       // was left, says nothing about the length that pays).
       if (t1 < dt || k == 0) {
         last_delta = t1 - t0;
-        guess = std::min(2.0 * last_delta, dt);
+        guess = std::min(growth * last_delta, dt);
       }
       return t1;
     }
@@ -105,6 +112,7 @@ namespace Collide {
 
     double last_delta = 0.0;    // length of the last window, for the next one's guess
     double guess = 0.0;         // length of the next window to try
+    double growth = 2.0;        // next guess = growth x the last window's length
     int stuck_left = 0;         // > 0: a recent window could not meet the target
     std::vector<std::pair<double, long>> tried;    // (window end, largest group) tried
   };

@@ -292,8 +292,8 @@ namespace GPU {
   PairsOnceLayout pairs_once_layout(Precision p, long n, int ilp)
   {
     PairsOnceLayout L;
-    // Measured fastest on an H200 (runs 21-25): more bodies per lane for large N, smaller
-    // slices (more tasks) for small N.
+    // Measured fastest on an H200 (doc/bench_gravity_gpu.md, the ILP sweep of pairs once):
+    // more bodies per lane for large N, smaller slices (more tasks) for small N.
     if (ilp != 2 && ilp != 4 && ilp != 8)
       ilp = (p != Precision::Double && n >= 65536) ? 8 : (n >= 16384) ? 4 : 2;
     L.ilp = ilp;

@@ -29,7 +29,8 @@ namespace GPU {
 
   /// GravityArgs::pairs_once = 1 takes the pairs-once kernel from this many sources on: from
   /// there it measured faster than the one-sided kernels in every precision on an H200
-  /// (doc/bench_gravity_gpu.md, runs 21-25); below, too few block pairs fill the GPU.
+  /// (doc/bench_gravity_gpu.md, the ILP sweep of pairs once); below, too few block pairs fill
+  /// the GPU.
   inline constexpr long PAIRS_ONCE_MIN_N = 16384;
 
   /// Launch shape of the tiled kernel.

@@ -912,6 +912,13 @@ namespace Collide {
       static constexpr int NLOCKED = 8;
       Locked locked[NLOCKED];    // run_atoms()'s arrays
       bool locking = true;       // false once the driver refused: pageable copies from then on
+      // run_atoms()'s arrays from FIRST_KEPT on (tlast, radius, rmass, type, id) as the last
+      // step that was done left them on the device, and where they lie on the host: the next
+      // step keeps them where the caller says they are unchanged (ResidentAtoms::same_atoms).
+      static constexpr int FIRST_KEPT = 3;
+      bool kept = false;
+      const void *kept_host[NLOCKED] = {};
+      size_t kept_bytes[NLOCKED] = {};
 
       /* Keeps [p, p + bytes) page-locked: a range that moved or changed length is released and
          the new one locked.  Where the driver refuses (memory limits, an overlap with another
@@ -944,6 +951,7 @@ namespace Collide {
       {
         cudaSetDevice(device);
         for (Locked &l : locked) unlock(l);
+        kept = false;
       }
 
      private:
@@ -1366,6 +1374,10 @@ namespace Collide {
                              d_adj.as<int>(),     d_best.as<Event>(), d_joined.as<unsigned char>()};
       WindowStats &stats = report.stats;
       double t0 = 0.0;
+      // Tuning aid: HSGPU_RESIDENT_GROW=g, how much longer than the last window the next one
+      // starts.
+      static const double grow_env = env_number("HSGPU_RESIDENT_GROW", 2.0);
+      chooser.set_growth(grow_env);
       chooser.start_step(dt);
       int k = 0;
       auto decline = [&](ResidentOutcome o) {
@@ -1654,11 +1666,19 @@ namespace Collide {
                            {d_atlast, a.tlast, n1}, {d_arad, a.radius, n1}, {d_amass, a.rmass, n1},
                            {d_atype, a.type, ni},   {d_aid, a.id, nid}};
       prof.locked = 0;
+      // tlast, radius, rmass, type and id stay on the device between steps where the caller
+      // vouches for them and they lie where they lay (no exchange, sort or host step since).
+      bool keep = a.same_atoms && kept;
+      for (int k = FIRST_KEPT; k < NLOCKED; ++k)
+        keep = keep && kept_host[k] == arrays[k].h && kept_bytes[k] == arrays[k].bytes;
+      kept = false;    // until this step is done
       cuda_check(cudaEventRecord(ev_up0, stream), "cudaEventRecord");
       for (int k = 0; k < NLOCKED; ++k) {
         lock(locked[k], arrays[k].h, arrays[k].bytes);
-        up(arrays[k].d, arrays[k].h, arrays[k].bytes);
         if (locked[k].p) ++prof.locked;
+        if (keep && k >= FIRST_KEPT) continue;
+        up(arrays[k].d, arrays[k].h, arrays[k].bytes);
+        report.bytes_up += (long) arrays[k].bytes;
       }
       cuda_check(cudaEventRecord(ev_up1, stream), "cudaEventRecord");
       // The step budget (the host's step_budget() on the device), read back by finish().
@@ -1775,6 +1795,12 @@ namespace Collide {
       tally.add(total);
       report.t_resolve = seconds_since(windows_start);
       finish();
+      // The device's tlast now equals the caller's (copied back above), the rest as uploaded.
+      for (int k = FIRST_KEPT; k < NLOCKED; ++k) {
+        kept_host[k] = arrays[k].h;
+        kept_bytes[k] = arrays[k].bytes;
+      }
+      kept = true;
     }
 
   }    // namespace
