@@ -19,6 +19,8 @@
                                         19 steps the device handed back to the host, in total
                                         20 seconds in the fix's whole step, in total
                                         21 candidate pairs, last step (ext)
+                                        22 ghost cutoff raised during runs, in total
+                                        23 largest step reach the ghost atoms cover now
 ------------------------------------------------------------------------------------- */
 
 #include "fix_hardsphere.h"
@@ -55,7 +57,7 @@ namespace {
 
 constexpr double NEVER_COLLIDED = -1.0e30;    // tlast of an atom that never collided
 const char *const FACES[HSGPU::Collide::NFACES] = {"xlo", "xhi", "ylo", "yhi", "zlo", "zhi"};
-constexpr int NVECTOR = 21;
+constexpr int NVECTOR = 23;
 constexpr int DEFAULT_MAXPUSH = 1000;    // overlap push passes before giving up
 constexpr int RESTART_FORMAT = 2;        // global restart data: -format, count, values
 
@@ -73,11 +75,13 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
     Fix(lmp, narg, arg), serial_order(0), nwindows_user(0), tc_user(-1.0), vmin(0.0),
     maxevents_user(-1), maxevents_warn(0), overlap_push(0), maxpush(DEFAULT_MAXPUSH),
     reach_user(-1.0), gpu_requested(0), device_request(-1), backend_device(-1), rmax(0.0),
-    reach(0.0), list_cut(0.0), maxevents(0), tlast(nullptr), n_step(0.0), n_total(0.0), n_wall(0.0),
-    ke_total(0.0), max_events(0.0), events_total(0.0), n_redo(0.0), last_largest(0.0),
+    reach_base(0.0), reach(0.0), reach_raise(0.0), list_cut(0.0), raise_drift(0.0), step_vmax2(0.0),
+    step_amax(0.0), vend2(0.0), maxevents(0), tlast(nullptr), n_step(0.0), n_total(0.0),
+    n_wall(0.0), ke_total(0.0), max_events(0.0), events_total(0.0), n_redo(0.0), last_largest(0.0),
     last_groups(0.0), last_windows(0.0), last_boundary(0.0), last_gathers(0.0), t_search(0.0),
     t_resolve(0.0), t_step(0.0), n_repair(0.0), n_resident(0.0), n_declined(0.0),
-    last_candidates(0.0), bound_floor(0.0), exchange(nullptr), fwd_nval(0), n_push(0.0)
+    last_candidates(0.0), n_ghost_raise(0.0), bound_floor(0.0), exchange(nullptr), fwd_nval(0),
+    n_push(0.0)
 {
   for (double &o : ovl) o = 0.0;
   ovl_depth = 0.0;
@@ -88,7 +92,7 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
   size_vector = NVECTOR;
   global_freq = 1;
   extvector = -1;
-  extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0, 0, 0, 1};
+  extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0, 0, 0, 1, 0, 0};
   virial_global_flag = 1;
   virial_peratom_flag = 1;    // on the steps LAMMPS asks for it (compute stress/atom)
   thermo_virial = 1;
@@ -99,6 +103,10 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
   create_attribute = 1;
   comm_forward = NFWD;
   dynamic_group_allow = 0;
+  // The fix may ask for a reneighboring (next_reneighbor) to raise the ghost cutoff when the
+  // atoms' moves approach what it covers (pre_exchange()).
+  force_reneighbor = 1;
+  next_reneighbor = -1;
 
   if (!atom->radius_flag || !atom->rmass_flag)
     error->all(FLERR, "Fix hardsphere requires atom style sphere (per-atom radius and rmass)");
@@ -270,7 +278,7 @@ void FixHardSphere::parse(int narg, char **arg)
 
 int FixHardSphere::setmask()
 {
-  return POST_INTEGRATE | PRE_NEIGHBOR;
+  return POST_INTEGRATE | PRE_NEIGHBOR | PRE_EXCHANGE;
 }
 
 double FixHardSphere::current_tc() const
@@ -340,7 +348,10 @@ void FixHardSphere::init()
   if (!(rmax > 0.0) && group->count(igroup) > 0)
     error->all(FLERR, "Fix hardsphere: no atom of group {} has a radius > 0", group->names[igroup]);
 
-  reach = reach_user > 0.0 ? reach_user : rmax;
+  reach_base = reach_user > 0.0 ? reach_user : rmax;
+  reach = reach_base;
+  reach_raise = 0.0;
+  next_reneighbor = -1;
   list_cut = 2.0 * rmax + 2.0 * reach;
   for (int d = 0; d < domain->dimension; ++d)
     if (domain->periodicity[d] && 2.0 * list_cut >= domain->prd[d])
@@ -351,18 +362,30 @@ void FixHardSphere::init()
 
   // Ghost atoms must reach as far as the candidate search: 2 rmax + 2 reach, plus the skin
   // that atoms may move between reneighborings.  Raised here (once, with a line in the log)
-  // when the communication cutoff is shorter; a larger user setting is kept.
+  // when the communication cutoff is shorter; a larger user setting is kept.  The reach
+  // covered is at least twice the fastest atom's drift of a step at its current speed (as far
+  // as a periodic box allows), so that a run does not start on ghosts its first steps outgrow.
+  if (comm->mode != Comm::SINGLE)
+    error->all(FLERR, "Fix hardsphere requires comm_modify mode single (in mode multi the ghost "
+                      "cutoff of each atom type follows the pair cutoffs, not the range of the "
+                      "fix's collisions)");
+  double vloc = 0.0, vmax2 = 0.0;
+  for (int i = 0; i < nlocal; ++i)
+    if (atom->mask[i] & groupbit) vloc = std::max(vloc, HSGPU::Collide::speed2(atom->v[i]));
+  MPI_Allreduce(&vloc, &vmax2, 1, MPI_DOUBLE, MPI_MAX, world);
+  const double drift = update->dt > 0.0 ? std::sqrt(vmax2) * update->dt : 0.0;
+  const double covered = std::max(reach_base, std::min(2.0 * drift, periodic_reach()));
   double ghost = comm->cutghostuser;
   if (force->pair && force->pair->cutforce > 0.0)
     ghost = std::max(ghost, force->pair->cutforce + neighbor->skin);
-  const double need = list_cut + neighbor->skin;
+  const double need = 2.0 * rmax + 2.0 * covered + neighbor->skin;
   if (ghost < need) {
     comm->cutghostuser = need;
     if (comm->me == 0)
       utils::logmesg(lmp,
                      "Fix hardsphere: communication cutoff raised to {:.8g} (2*max radius {:.8g} "
                      "+ 2*reach {:.8g} + neighbor skin {:.8g})\n",
-                     need, 2.0 * rmax, 2.0 * reach, neighbor->skin);
+                     need, 2.0 * rmax, 2.0 * covered, neighbor->skin);
   }
 
   maxevents = maxevents_user > 0 ? maxevents_user : 1000 + 100 * atom->natoms;
@@ -495,6 +518,10 @@ double FixHardSphere::compute_vector(int n)
     MPI_Allreduce(&last_candidates, &all, 1, MPI_DOUBLE, MPI_SUM, world);
     return last_candidates < 0.0 ? -1.0 : all;
   }
+  case 21:
+    return n_ghost_raise;
+  case 22:
+    return ghost_reach();
   default:
     return 0.0;
   }
@@ -506,14 +533,15 @@ double FixHardSphere::compute_vector(int n)
    last step's pair collisions and collision virial; the other figures of the last step and the
    timers start again).  Files written before the format marker hold 7 values: n_total n_wall
    ke_total max_events events_total n_redo n_step; older files of this format 9 or 11 (no
-   virial).  Readers take the values they know and leave the rest. */
+   virial) or 17 (no count of ghost cutoff raises).  Readers take the values they know and leave the
+   rest. */
 void FixHardSphere::write_restart(FILE *fp)
 {
   // Every rank holds its share of the virial (LAMMPS sums them): the file holds the sum.
   double vsum[6];
   MPI_Allreduce(virial, vsum, 6, MPI_DOUBLE, MPI_SUM, world);
   const double state[] = {-(double) RESTART_FORMAT,
-                          17.0,
+                          18.0,
                           n_total,
                           n_wall,
                           ke_total,
@@ -530,7 +558,8 @@ void FixHardSphere::write_restart(FILE *fp)
                           vsum[2],
                           vsum[3],
                           vsum[4],
-                          vsum[5]};
+                          vsum[5],
+                          n_ghost_raise};
   const int count = (int) (sizeof(state) / sizeof(double));
   if (comm->me == 0) {
     const int size = (int) sizeof(state);
@@ -563,6 +592,7 @@ void FixHardSphere::restart(char *buf)
   }
   // The last step's collision virial, on rank 0 (the ranks' shares are summed by LAMMPS).
   for (int k = 0; k < 6; ++k) virial[k] = (count > 16 && comm->me == 0) ? v[11 + k] : 0.0;
+  if (count > 17) n_ghost_raise = v[17];
 }
 
 /* --- per-atom state: time of the last collision ----------------------------------------- */

@@ -36,6 +36,7 @@ class FixHardSphere : public Fix {
   void init() override;
   void setup(int) override;
   void setup_pre_neighbor() override;
+  void pre_exchange() override;
   void post_run() override;
   void post_integrate() override;
   double compute_vector(int) override;
@@ -73,9 +74,15 @@ class FixHardSphere : public Fix {
   int backend_device;       // device of the current backend, -1: the CPU backend
 
   // --- derived in init() ----------------------------------------------------------------
-  double rmax;        // largest radius in the group
-  double reach;       // displacement budget per step the neighbor list covers
-  double list_cut;    // candidate range (without skin): 2 rmax + 2 reach
+  double rmax;           // largest radius in the group
+  double reach_base;     // the reach of an ordinary step: reach_user, else rmax
+  double reach;          // this step's reach: reach_base, or up to ghost_reach() when needed
+  double reach_raise;    // > 0: raise the ghost cutoff to cover this reach at the
+                         // reneighboring of step next_reneighbor (pre_exchange())
+  double list_cut;       // candidate range (without skin) of an ordinary step: 2 rmax + 2 reach
+  double raise_drift;    // the drift that asked for reach_raise (for the log)
+  double step_vmax2, step_amax;    // the step budget's maxima (all ranks)
+  double vend2;                    // largest squared end speed of this rank's atoms with events
   bigint maxevents;
 
   // --- per-atom state ---------------------------------------------------------------------
@@ -101,6 +108,7 @@ class FixHardSphere : public Fix {
   double n_resident;         // steps carried out whole on the device, in total
   double n_declined;         // steps the device handed back to the host, in total
   double last_candidates;    // candidate pairs of the last step on this rank
+  double n_ghost_raise;      // ghost cutoff raised during runs, in total
   struct RunSummary {        // this run, for the line post_run() logs
     bigint steps = 0;
     double pairs = 0.0, events = 0.0, largest = 0.0, windows = 0.0, groups = 0.0;
@@ -181,6 +189,10 @@ class FixHardSphere : public Fix {
   void forward_state(double drift_dt);
   void step_budget();
   void check_budget(double vmax2, double amax, double rmax_seen);
+  double ghost_reach() const;
+  double periodic_reach() const;
+  void plan_ghost_raise(double drift);
+  void reach_error(double moved, const char *what);
   /// This step can go to the device-resident step: one rank, no per-atom virial asked for.
   bool resident_usable() const;
   double step_bound(int i, double drift_dt) const;

@@ -3,8 +3,9 @@
 
    post_integrate():
      1. each atom's displacement bound for the step (twice its own drift |v| dt, at least a
-        floor of half the fastest atom's drift and bow, at most the reach the ghost atoms
-        cover), the fastest atom checked against that reach;
+        floor of half the fastest atom's drift and bow, at most the step's reach); where the
+        fastest atom may move further than the reach, the step's reach is all that the ghost
+        atoms cover (ghost_reach());
      2. forward communication of the owners' positions and velocities to the ghosts;
      3. bodies for the owned atoms (start points X0 = x - vh dt), candidate pairs whose start
         points are within their two radii plus their two bounds (the fix's own cell search
@@ -16,13 +17,17 @@
         README) over all of this rank's bodies (several ranks: over all bodies, gathered);
      5. check that no pair outside the candidates could have touched (an atom moved further
         than its bound and, with its partner, at least their gap); if one could, raise those
-        atoms' bounds and redo the step;
+        atoms' bounds and redo the step; an atom that moved further than the ghosts cover
+        stops the run, naming the reach to set;
      6. positions and half-step velocities back to the atoms, counters, virial; on steps
         where LAMMPS asks for per-atom virials (update->vflag_atom, set by Integrate::ev_set
         before post_integrate) also those: half of each pair collision's r (x) dp to each of
         its two atoms, all of a wall collision's to its atom, each rank to its own atoms.
         Such steps run on the host (not the device-resident step, and with the CPU backend
-        in place of the CUDA one), which gives the same trajectories bit for bit.
+        in place of the CUDA one), which gives the same trajectories bit for bit;
+     7. where the next step at the atoms' present speeds would move one further than half of
+        what the ghosts cover: a reneighboring at the end of this step, at which the ghost
+        cutoff is raised (plan_ghost_raise(), pre_exchange()).
 ------------------------------------------------------------------------------------- */
 
 #include "fix_hardsphere.h"
@@ -138,7 +143,10 @@ void FixHardSphere::step_budget()
 }
 
 /* The checks of step_budget() on the maxima over the group's atoms (found on the host, or by
-   the resident step on the device): largest squared speed, acceleration and radius. */
+   the resident step on the device): largest squared speed, acceleration and radius.  Sets the
+   step's reach: reach_base, or, where the fastest atom may move further, all that the ghost
+   atoms cover (ghost_reach()); whether the atoms stayed within it is the step's own check
+   (step_exact(): an atom rattling fast in a narrow gap moves far less than its speed says). */
 void FixHardSphere::check_budget(double vmax2, double amax, double rmax_seen)
 {
   if (rmax_seen > rmax * (1.0 + 1e-12))
@@ -148,16 +156,102 @@ void FixHardSphere::check_budget(double vmax2, double amax, double rmax_seen)
                rmax_seen, rmax);
   const double dt = update->dt;
   const double least = HSGPU::Collide::step_least(vmax2, amax, dt);
-  if (least > reach)
-    error->all(FLERR,
-               "Fix hardsphere: atoms move up to {:.6g} per step (speed {:.6g}, timestep {:.6g}), "
-               "more than the reach {:.6g} its ghost atoms cover: reduce the timestep, or raise "
-               "the fix's 'reach' keyword",
-               least, std::sqrt(vmax2), dt, reach);
+  reach = least > reach_base ? std::max(reach_base, ghost_reach()) : reach_base;
+  step_vmax2 = vmax2;
+  step_amax = amax;
   // Every atom's step bound is at least half the fastest drift: an atom at rest that is hit
   // moves about as far as what hit it, and a bound of zero would make the step's check fail
   // (and the step be redone) each time.
   bound_floor = 0.5 * least;
+}
+
+/* The largest reach that a periodic box allows: a pair must be found through one periodic
+   image only, so every periodic length must exceed twice 2 rmax + 2 reach. */
+double FixHardSphere::periodic_reach() const
+{
+  double most = 1e300;
+  for (int d = 0; d < domain->dimension; ++d)
+    if (domain->periodicity[d]) most = std::min(most, (0.25 - 1e-12) * domain->prd[d] - rmax);
+  return most;
+}
+
+/* The largest reach the ghost atoms cover now (the same on every rank): an owned atom's
+   partners lie within 2 rmax + 2 reach of it at the step start, and every atom has moved less
+   than half the neighbor skin since the ghosts were made (LAMMPS's distance check), so
+   2 rmax + 2 reach + skin must fit within the communication cutoff; at most periodic_reach(). */
+double FixHardSphere::ghost_reach() const
+{
+  double cut = 1e300;
+  for (int d = 0; d < domain->dimension; ++d) cut = std::min(cut, comm->cutghost[d]);
+  return std::min(periodic_reach(), 0.5 * (cut - neighbor->skin - 2.0 * rmax));
+}
+
+/* After a step: `drift` is how far the fastest atom would move in the next step at its
+   current speed.  Where that comes within half of what the ghost atoms cover, the fix asks
+   LAMMPS to reneighbor at the end of this step and raises the ghost cutoff there
+   (pre_exchange()), to twice that drift and at least 1.5 times the present reach, as far as a
+   periodic box allows.  Decided from quantities summed over the ranks: the same on all. */
+void FixHardSphere::plan_ghost_raise(double drift)
+{
+  const double cap = ghost_reach();
+  if (!(drift > 0.5 * cap)) return;
+  const double target = std::min(periodic_reach(), std::max(2.0 * drift, 1.5 * cap));
+  if (!(target > cap)) return;    // a periodic box allows no more: the steps check themselves
+  reach_raise = target;
+  raise_drift = drift;
+  next_reneighbor = update->ntimestep;
+}
+
+/* At a reneighboring the fix asked for: the ghost cutoff raised to cover reach_raise (the
+   communication and neighbor bins set up again, as LAMMPS does when the box changes), before
+   the atoms are exchanged and the ghosts made. */
+void FixHardSphere::pre_exchange()
+{
+  if (!(reach_raise > 0.0) || update->ntimestep != next_reneighbor) return;
+  const double need = 2.0 * rmax + 2.0 * reach_raise + neighbor->skin;
+  if (comm->cutghostuser < need) {
+    comm->cutghostuser = need;
+    comm->setup();
+    if (neighbor->style) neighbor->setup_bins();
+    n_ghost_raise += 1.0;
+    if (comm->me == 0)
+      utils::logmesg(lmp,
+                     "Fix hardsphere: communication cutoff raised to {:.8g} at step {} (atoms "
+                     "move up to {:.6g} per step; 2*max radius {:.8g} + 2*reach {:.8g} + neighbor "
+                     "skin {:.8g})\n",
+                     need, update->ntimestep, raise_drift, 2.0 * rmax, 2.0 * reach_raise,
+                     neighbor->skin);
+  }
+  reach_raise = 0.0;
+  next_reneighbor = -1;
+}
+
+/* Stops the run: an atom moved `moved` in this step, more than the ghost atoms cover; the
+   message says what to set. */
+void FixHardSphere::reach_error(double moved, const char *what)
+{
+  const double most = periodic_reach();
+  if (moved > most) {
+    int dim = 0;
+    for (int d = 0; d < domain->dimension; ++d)
+      if (domain->periodicity[d] &&
+          (!domain->periodicity[dim] || domain->prd[d] < domain->prd[dim]))
+        dim = d;
+    error->all(FLERR,
+               "Fix hardsphere: {} {:.6g} in one step (step {}), more than the periodic box "
+               "length {:.6g} along {} lets the fix cover ({:.6g}: twice 2*max radius + 2*reach "
+               "must stay below the box length): reduce the timestep",
+               what, moved, update->ntimestep, domain->prd[dim], "xyz"[dim], most);
+  }
+  double cut = 1e300;
+  for (int d = 0; d < domain->dimension; ++d) cut = std::min(cut, comm->cutghost[d]);
+  error->all(FLERR,
+             "Fix hardsphere: {} {:.6g} in one step (step {}), more than the {:.6g} its ghost "
+             "atoms cover (communication cutoff {:.6g}); the fix raises the ghost cutoff as moves "
+             "approach it, but this one came within a step: set the fix's 'reach' to at least "
+             "{:.6g} (or 'comm_modify cutoff' to at least {:.6g}), or reduce the timestep",
+             what, moved, update->ntimestep, ghost_reach(), cut, moved,
+             2.0 * rmax + 2.0 * moved + neighbor->skin);
 }
 
 /* The bodies of the group's owned atoms at their start points x - v drift_dt.  Returns true
@@ -258,17 +352,36 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
     sidx[np] = bd.owner;
   }
   const int nsearch = nb;
-  for (int j = nlocal; j < nall; ++j) {
+  // Ghosts too far from every owned body to pair with one are left out: a pair is a candidate
+  // within its radii and two step bounds, and the step's check looks within the radii and two
+  // excursions, each at most what the ghosts cover (ghost_reach()).  The ghost shell follows
+  // the largest sphere; a small ghost needs only its own share of it (diameters 1 and 10).
+  double blo[3] = {1e300, 1e300, 1e300}, bhi[3] = {-1e300, -1e300, -1e300}, rown = 0.0;
+  for (int b = 0; b < nb; ++b) {
+    for (int d = 0; d < 3; ++d) {
+      blo[d] = std::min(blo[d], bodies[b].X0[d]);
+      bhi[d] = std::max(bhi[d], bodies[b].X0[d]);
+    }
+    rown = std::max(rown, bodies[b].radius);
+  }
+  const double keep = rown + 2.0 * ghost_reach();
+  for (int j = nlocal; j < nall && nb > 0; ++j) {
     if (!(mask[j] & groupbit)) continue;
     const double *g = &gdata[(size_t) NFWD * j];
     const int bj = (int) g[7] == me ? body_of[(int) g[8]] : -1;
     const int node = bj < 0 ? foreign_of[j - nlocal] : -1;
     if (bj < 0 && node < 0) continue;
+    double out2 = 0.0;
     for (int d = 0; d < 3; ++d) {
       const double p = g[d] - g[3 + d] * drift_dt;
       sraw[3 * np + d] = p;
       spos[3 * np + d] = periodic[d] ? p + std::nearbyint((x[j][d] - p) / prd[d]) * prd[d] : p;
+      const double e =
+          std::max(std::max(blo[d] - spos[3 * np + d], spos[3 * np + d] - bhi[d]), 0.0);
+      out2 += e * e;
     }
+    const double range = (g[6] + keep) * (1.0 + 1e-9);
+    if (out2 > range * range) continue;
     srad[np] = g[6];
     sbound[np] = g[9];
     sid[np] = tag[j];
@@ -731,9 +844,11 @@ void FixHardSphere::apply_results(double dt, bool in_bodies)
 {
   double **x = atom->x, **v = atom->v;
   double xe[3], ve[3];
+  vend2 = 0.0;
   auto put = [&](Body &b, int i) {
     if (b.nevents > 0) {
       HSGPU::Collide::end_of_step(b, dt, xe, ve);
+      vend2 = std::max(vend2, ve[0] * ve[0] + ve[1] * ve[1] + ve[2] * ve[2]);
       for (int d = 0; d < 3; ++d) {
         x[i][d] = xe[d];
         v[i][d] = ve[d];
@@ -810,7 +925,8 @@ void FixHardSphere::setup(int vflag)
    of it moved further than its bound and the two moved at least the pair's gap (at their
    start points) together.  The bodies of such pairs get their bound raised to twice their
    excursion, and the step is redone.  Returns true when the step is exact.  An atom that moved
-   further than the reach the ghost atoms cover stops the run. */
+   further than the step's reach raises it to all that the ghost atoms cover; further than
+   that stops the run (reach_error()). */
 bool FixHardSphere::step_exact()
 {
   const int nb = (int) bodies.size();
@@ -829,31 +945,25 @@ bool FixHardSphere::step_exact()
     if (bexc[b] > sbound[b]) loc[1] = 1.0;
   }
   MPI_Allreduce(loc, glob, 2, MPI_DOUBLE, MPI_MAX, world);
-  if (glob[0] > reach)
-    error->all(FLERR,
-               "Fix hardsphere: collisions sent an atom {:.6g} in one step, more than the reach "
-               "{:.6g} its ghost atoms cover: reduce the timestep, or raise the fix's 'reach' "
-               "keyword",
-               glob[0], reach);
+  if (glob[0] > reach) {
+    // Beyond this step's reach: all that the ghosts cover, or stop.
+    const double cap = ghost_reach();
+    if (glob[0] > cap) reach_error(glob[0], "an atom moved");
+    reach = std::max(reach, cap);
+  }
   if (glob[1] == 0.0) return true;
   if (comm->nprocs > 1) exchange->to_foreign(bexc, 1, fexc);
 
   const int periodic[3] = {domain->xperiodic, domain->yperiodic, domain->zperiodic};
   const double *prd = domain->prd;
-  const double width = search.cell_width();
   int missed = 0;
   std::vector<int> near;
   for (int b = 0; b < nb; ++b) {
     if (!(bexc[b] > sbound[b])) continue;
     const int owner = bodies[b].owner;
-    if (!(bexc[b] + glob[0] + 2.0 * rmax < width)) {
-      // Its partners may lie beyond the cells around it: raise its bound and search again.
-      sboost[owner] = std::max(sboost[owner], 2.0 * bexc[b]);
-      missed = 1;
-      continue;
-    }
+    // Every point it could have touched: within 2 rmax and the two excursions.
     near.clear();
-    search.neighbors(b, near);
+    search.within(b, bexc[b] + glob[0] + 2.0 * rmax * (1.0 + 2.0 * OVERLAP_TOL), near);
     for (int c : near) {
       if (sid[c] == sid[b]) continue;
       const double ec = sbody[c] >= 0 ? bexc[sbody[c]] : fexc[snode[c]];
@@ -1019,6 +1129,7 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
   all = mine;
   resident_same = whole;
   last_candidates = (double) report.candidates;    // the device's search, the same pairs
+  if (whole) vend2 = report.vend2;                 // the atoms' speeds at the step end
   n_resident += 1.0;
   run_sum.resident++;
   n_repair += (double) report.stats.repairs;
@@ -1039,9 +1150,13 @@ void FixHardSphere::post_integrate()
   // Per-atom virial on the steps LAMMPS asks for it (Integrate::ev_set sets vflag_atom to the
   // step before post_integrate); v_init zeroes vatom then, and sets vflag_atom.
   virial_init(update->vflag_atom == update->ntimestep ? VIRIAL_ATOM : 0);
+  // The default event cap follows the atoms present (fix pour or fix deposit may have added
+  // some since the run started, into a group that may have been empty then).
+  if (maxevents_user <= 0) maxevents = 1000 + 100 * atom->natoms;
   // A whole step on the device (one rank, group all) finds the budget's maxima there.
   if (!(resident_usable() && igroup == 0)) step_budget();
   Tally mine, all;
+  vend2 = 0.0;
   const int on_device = step_resident(mine, all);
   if (!on_device) {
     sboost.assign(atom->nlocal, 0.0);
@@ -1064,8 +1179,17 @@ void FixHardSphere::post_integrate()
     }
   }
 
-  // 2: the device wrote the atoms itself; 1: its results are in bodies.
+  // 2: the device wrote the atoms itself (and vend2, where it finds it); 1: its results are
+  // in bodies.
   if (on_device != 2) apply_results(dt, on_device == 1 || !serial_order);
+  // The next step's drift at the atoms' speeds now (after a step on the device with group
+  // all: as the device reports them, else at the step's start): the ghost cutoff is raised
+  // ahead of it where needed.
+  {
+    double v2 = std::max(step_vmax2, vend2), gv2 = 0.0;
+    MPI_Allreduce(&v2, &gv2, 1, MPI_DOUBLE, MPI_MAX, world);
+    plan_ghost_raise(std::sqrt(gv2) * dt + step_amax * dt * dt);
+  }
   if (vflag_atom) {
     apply_virial(dt, !serial_order);
     vatom_step = update->ntimestep;

@@ -131,3 +131,53 @@ TEST(CellSearch, DiluteCloudGetsWiderCells)
   EXPECT_LE(search.cells(), 2L * c.n + 27);
   expect_same_pairs(c, 1e-9);
 }
+
+// Diameters 1 and 10 (issue 12 item 8): a few large points among many small ones are searched
+// in a class of their own, against the small points' cells within their own range; still every
+// pair once, and within(i, range) holds every point within range of point i.
+TEST(CellSearch, FewLargeAmongManySmallAreSearchedApart)
+{
+  Cloud c = make_cloud(3000, 2400, 20.0, 0.45, 0.6, false, 7);
+  std::mt19937 gen(8);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int k = 0; k < 40; ++k) {    // large points, some of them ghosts
+    const int i = (int) (u(gen) * c.n);
+    c.rad[i] = 4.5 + u(gen);
+    c.rmax = std::max(c.rmax, c.rad[i]);
+  }
+  CellSearch search;
+  std::vector<int> pairs;
+  search.find(c.x.data(), c.rad.data(), c.n, c.nsearch, c.rmax, 1e-9, pairs);
+  EXPECT_GT(search.large_points(), 0);
+  EXPECT_LE(search.large_points(), c.n / 32);
+  EXPECT_LT(search.cell_width(), 2.0 * 4.5) << "small cells sized for the small points";
+  expect_same_pairs(c, 1e-9);
+  std::vector<int> out;
+  for (int i = 0; i < c.n; i += 13) {
+    const double range = 0.7 + (i % 5);
+    out.clear();
+    search.within(i, range, out);
+    const std::set<int> in(out.begin(), out.end());
+    for (int j = 0; j < c.n; ++j) {
+      double d2 = 0.0;
+      for (int d = 0; d < 3; ++d) {
+        const double r = c.x[3 * i + d] - c.x[3 * j + d];
+        d2 += r * r;
+      }
+      if (d2 <= range * range) {
+        EXPECT_TRUE(in.count(j)) << "point " << j << " within " << range << " of " << i;
+      }
+    }
+  }
+}
+
+// Sizes spread evenly (no few large ones): one class, as before.
+TEST(CellSearch, EvenSpreadOfSizesKeepsOneClass)
+{
+  Cloud c = make_cloud(1000, 1000, 15.0, 0.3, 1.0, false, 9);
+  CellSearch search;
+  std::vector<int> pairs;
+  search.find(c.x.data(), c.rad.data(), c.n, c.nsearch, c.rmax, 1e-9, pairs);
+  EXPECT_EQ(search.large_points(), 0);
+  EXPECT_GE(search.cell_width(), 2.0 * c.rmax);
+}

@@ -436,7 +436,8 @@ TEST(FixHardSphere, DenseRunHasNoOverlapsAndSerialEqualsParallel)
 // Four big spheres among about 6000 small ones under gravity, floor and roof: no error,
 // collisions between small and big spheres, no overlap at the end (all pairs, each with its own
 // contact distance), and a few candidate pairs per atom, not the hundreds a big-sphere cutoff
-// would give.  (The search's cells still follow the big spheres, so its cost does:
+// would give.  (The search's cells follow the small spheres, the big ones are searched apart:
+// its time per step is printed; examples/hardsphere/in.sizeratio10 measures it,
 // doc/fix_hardsphere.md.)
 TEST(FixHardSphere, SizeRatioTenRunsWithDefaults)
 {
@@ -504,6 +505,146 @@ TEST(FixHardSphere, SizeRatioTenRunsWithDefaults)
               "wall collisions, %.2f candidate pairs per atom, %.3g ms per step (fix), closest "
               "pair %.3g of contact from it (small-big %.3g)\n",
               n, coll, walls, cand / n, 1e3 * t_step, worst, worst_big);
+}
+
+namespace {
+
+// Smallest gap between spheres of their own radii (relative to the contact distance), all
+// pairs, nearest image along each dimension d with period[d] > 0.
+double closest_gap(const std::vector<double> &x, const std::vector<double> &rad,
+                   const double period[3])
+{
+  const size_t n = rad.size();
+  double worst = 1e300;
+  for (size_t i = 0; i < n; ++i)
+    for (size_t j = i + 1; j < n; ++j) {
+      double r2 = 0.0;
+      for (int d = 0; d < 3; ++d) {
+        double dx = x[3 * i + d] - x[3 * j + d];
+        if (period[d] > 0.0) dx -= period[d] * std::round(dx / period[d]);
+        r2 += dx * dx;
+      }
+      const double s = rad[i] + rad[j];
+      worst = std::min(worst, (std::sqrt(r2) - s) / s);
+    }
+  return worst;
+}
+
+// A small sphere on the floor squeezed by a big one (diameters 1 and 10, the big one falling
+// onto it off-centre) is squirted sideways at about 100 while the big one falls at 5.  The
+// fix's reach 0.25 (the ghost shell of a user who wants it thin) covers the big one's moves but
+// not the small one's after the squeeze.
+std::vector<std::string> squeeze_scene(const std::string &extra)
+{
+  return {"units lj",
+          "atom_style sphere",
+          "atom_modify map array",
+          "boundary p p f",
+          "region box block 0 50 0 50 0 30",
+          "create_box 2 box",
+          "create_atoms 1 single 25 25 0.5 units box",
+          "create_atoms 2 single 25.5 25 6.6 units box",
+          "set type 1 diameter 1.0",
+          "set type 2 diameter 10.0",
+          "set type * density 1.0",
+          "neigh_modify every 1 delay 0 check yes",
+          "fix 1 all nve/sphere",
+          "fix g all gravity 1.0 vector 0 0 -1",
+          "group big type 2",
+          "velocity big set 0 0 -5",
+          "variable sp atom sqrt(vx*vx+vy*vy+vz*vz)",
+          "compute vm all reduce max v_sp",
+          "thermo_style custom step c_vm",
+          "thermo_modify norm no",
+          "timestep 0.005",
+          extra,
+          "fix hs all hardsphere restitution 0.9 wall zlo 0.9 wall zhi 1.0 reach 0.25",
+          "run 400"};
+}
+
+}    // namespace
+
+// Issue 12 item 9: the run used to stop at step 25 ("atoms move up to 0.500163 per step ...
+// more than the reach 0.25 its ghost atoms cover").  Now the fix raises the ghost cutoff at the
+// end of the squeezing step (a reneighboring it asks for) and the run goes on, with the
+// trajectory of a run whose ghosts covered the moves from the start.  With a communication
+// cutoff that already covers them the step's reach is raised within it, with no reneighboring.
+TEST(FixHardSphere, SqueezedSmallSphereOutrunsTheReachAndTheFixAdapts)
+{
+  std::vector<double> x[3], v[3];
+  double raised[3], covered[3], vmax[3], coll[3];
+  const char *extra[3] = {"comm_modify vel yes", "comm_modify cutoff 14 vel yes",
+                          "comm_modify cutoff 25 vel yes"};
+  for (int k = 0; k < 3; ++k) {
+    Lammps lmp;
+    lmp.commands(squeeze_scene(extra[k]));
+    x[k] = lmp.gather("x", 3);
+    v[k] = lmp.gather("v", 3);
+    raised[k] = lmp.fix_vector("hs", 21);
+    covered[k] = lmp.fix_vector("hs", 22);
+    vmax[k] = lmp.compute_scalar("vm");
+    coll[k] = lmp.fix_vector("hs", 1);
+    const double period[3] = {50.0, 50.0, 0.0};
+    EXPECT_GT(closest_gap(x[k], lmp.gather("radius", 1), period), -1e-9) << extra[k];
+    std::printf("[ HS       ] squeeze (%s): %.0f collisions, fastest atom %.4g (moves %.4g per "
+                "step), ghost cutoff raised %.0f times, the ghosts cover a reach of %.4g\n",
+                extra[k], coll[k], vmax[k], vmax[k] * 0.005, raised[k], covered[k]);
+  }
+  EXPECT_GT(vmax[0] * 0.005, 0.25) << "the small sphere should outrun the reach";
+  EXPECT_GE(coll[0], 10.0);
+  EXPECT_GE(raised[0], 1.0);
+  EXPECT_GT(covered[0], 2.0 * vmax[0] * 0.005 * 0.99);
+  EXPECT_EQ(raised[1], 0.0);    // cutoff 14 covers a reach of 1.85
+  EXPECT_EQ(raised[2], 0.0);
+  // Same collisions; the run with the cutoff raised on the way (its extra reneighboring
+  // wraps periodic coordinates at another step) agrees to round-off, the other bitwise.
+  for (int k = 0; k < 2; ++k) {
+    EXPECT_EQ(coll[k], coll[2]);
+    EXPECT_LT(max_abs_diff(x[k], x[2]), 1e-10) << extra[k];
+    EXPECT_LT(max_abs_diff(v[k], v[2]), 1e-10) << extra[k];
+  }
+  EXPECT_EQ(max_abs_diff(x[1], x[2]), 0.0);
+  EXPECT_EQ(max_abs_diff(v[1], v[2]), 0.0);
+}
+
+// Where the ghosts cannot cover a move (it came within one step), the error says what to set,
+// and that setting runs.  An atom kicked by a force that switches on at step 10 (its speed is
+// a dt = 5000 after the half kicks on either side of the force) moves 25 in step 11, and 50 in
+// step 12, for which the fix raises the ghost cutoff itself (after steps 11 and 12).
+TEST(FixHardSphere, AMoveBeyondTheGhostsNamesTheReachToSet)
+{
+  const std::vector<std::string> scene = {"units lj",
+                                          "atom_style sphere",
+                                          "atom_modify map array",
+                                          "boundary f f f",
+                                          "region box block 0 100 0 100 0 100",
+                                          "create_box 1 box",
+                                          "create_atoms 1 single 20 50 50 units box",
+                                          "create_atoms 1 single 60 50 50 units box",
+                                          "set type 1 diameter 1.0",
+                                          "set type 1 mass 1.0",
+                                          "neigh_modify every 1 delay 0 check yes",
+                                          "group one id 1",
+                                          "variable fx equal (step>=10)*1e6",
+                                          "fix 1 all nve/sphere",
+                                          "fix kick one addforce v_fx 0 0",
+                                          "timestep 0.005"};
+  {
+    Lammps lmp;
+    lmp.commands(scene);
+    const std::string err =
+        lmp.first_error({"fix hs all hardsphere reach 0.5 wall xhi 1.0", "run 12"});
+    EXPECT_THAT(err, HasSubstr("an atom moved 25 in one step (step 11), more than the 0.5 its "
+                               "ghost atoms cover (communication cutoff 2.3)"));
+    EXPECT_THAT(err, HasSubstr("set the fix's 'reach' to at least 25"));
+  }
+  {
+    Lammps lmp;
+    lmp.commands(scene);
+    EXPECT_EQ(lmp.first_error({"fix hs all hardsphere reach 26 wall xhi 1.0", "run 12"}), "");
+    EXPECT_GE(lmp.fix_vector("hs", 21), 1.0) << "ghost cutoff raised for step 12";
+    EXPECT_GT(lmp.fix_vector("hs", 22), 50.0);
+  }
 }
 
 TEST(FixHardSphere, RestartContinuationEqualsUninterruptedRun)
@@ -638,6 +779,117 @@ TEST(FixHardSphere, PourIntoAGroupEmptyAtTheStart)
   EXPECT_GT(worst, -1e-9);
 }
 
+namespace {
+
+// The fix's outputs after a run of `steps` steps on n atoms: finite, non-negative where they
+// count, and the per-step figures within what n atoms can give.
+void expect_sane_outputs(Lammps &lmp, const char *id, long n)
+{
+  std::vector<double> f(23);
+  for (int i = 0; i < 23; ++i) {
+    f[i] = lmp.fix_vector(id, i);
+    EXPECT_TRUE(std::isfinite(f[i])) << "f_" << id << "[" << i + 1 << "]";
+    if (i != 16) {
+      EXPECT_GE(f[i], 0.0) << "f_" << id << "[" << i + 1 << "]";
+    }
+  }
+  EXPECT_LE(f[0], f[1]);                  // last step's collisions within the total
+  EXPECT_LE(f[4], f[5]);                  // most events in a step within the total
+  EXPECT_LE(f[6], (double) n);            // largest group
+  EXPECT_LE(f[10], (double) n * f[8]);    // atoms in groups spanning ranks, all windows
+  EXPECT_LT(f[20], 20.0 * (double) n);    // candidate pairs of the last step
+  EXPECT_EQ(f[16], -1.0);                 // the CPU backend
+}
+
+// Largest radius among the atoms.
+double largest(const std::vector<double> &rad)
+{
+  double r = 0.0;
+  for (double q : rad) r = std::max(r, q);
+  return r;
+}
+
+}    // namespace
+
+// Issue 12 item 12: fix pour with a size distribution into a group that is empty when the run
+// starts (diameters 0.4, 1 and 2 by volume fractions 0.3, 0.4, 0.3).  The fix covers the pour's
+// largest radius from the start (its ghost cutoff and reach), and the spheres that arrive,
+// of all three sizes, are resolved: no pair (each at its own contact distance) or sphere and
+// floor overlaps at the end, collisions of every kind, and outputs that make sense.
+TEST(FixHardSphere, PolydispersePourIntoAnEmptyGroup)
+{
+  Lammps lmp;
+  lmp.commands({"units lj", "atom_style sphere", "atom_modify map hash", "boundary p p f",
+                "region box block 0 12 0 12 0 30", "create_box 1 box",
+                "neigh_modify every 1 delay 0 check yes", "comm_modify vel yes",
+                "group grains empty", "region slab block 1 11 1 11 16 28",
+                "fix g grains gravity 1.0 vector 0 0 -1",
+                "fix ins grains pour 400 1 4767548 region slab diam poly 3 0.4 0.3 1.0 0.4 2.0 "
+                "0.3 vol 0.25 50",
+                "fix 1 grains nve/sphere", "fix hs grains hardsphere wall zlo 0.5 restitution 0.5",
+                "thermo_modify norm no", "timestep 0.005", "run 0"});
+  EXPECT_EQ(lmp.natoms(), 0);
+  EXPECT_GE(lmp.fix_vector("hs", 22), 1.0) << "reach of the pour's largest radius";
+  lmp.commands({"run 3000"});
+  const long n = lmp.natoms();
+  const auto x = lmp.gather("x", 3), rad = lmp.gather("radius", 1);
+  const double period[3] = {12.0, 12.0, 0.0};
+  const double gap = closest_gap(x, rad, period);
+  double floor_gap = 1e300;
+  int sizes[3] = {0, 0, 0};
+  for (long i = 0; i < n; ++i) {
+    floor_gap = std::min(floor_gap, (x[3 * i + 2] - rad[i]) / rad[i]);
+    sizes[rad[i] < 0.3 ? 0 : rad[i] < 0.7 ? 1 : 2]++;
+  }
+  const double coll = lmp.fix_vector("hs", 1), walls = lmp.fix_vector("hs", 2);
+  std::printf("[ HS       ] fix pour, diameters 0.4/1/2, into an empty group: %ld atoms (%d, %d, "
+              "%d), %.0f collisions, %.0f wall collisions, closest pair %.3g and floor %.3g "
+              "from contact, %.2f candidate pairs per atom, most events in a step %.0f\n",
+              n, sizes[0], sizes[1], sizes[2], coll, walls, gap, floor_gap,
+              lmp.fix_vector("hs", 20) / n, lmp.fix_vector("hs", 4));
+  EXPECT_GT(n, 300);
+  for (int k = 0; k < 3; ++k) EXPECT_GT(sizes[k], 20) << "size class " << k;
+  EXPECT_DOUBLE_EQ(largest(rad), 1.0);
+  EXPECT_GT(coll, 1000.0);
+  EXPECT_GT(walls, 300.0);
+  EXPECT_GT(gap, -1e-9);
+  EXPECT_GT(floor_gap, -1e-9);
+  expect_sane_outputs(lmp, "hs", n);
+}
+
+// Issue 12 item 12: fix deposit, one atom every 10 steps onto a floor, into a group that is
+// empty when the run starts (its radius, 0.5, from fix deposit): all 250 arrive and pile up
+// without overlaps, and the outputs make sense.
+TEST(FixHardSphere, DepositIntoAnEmptyGroup)
+{
+  Lammps lmp;
+  lmp.commands({"units lj", "atom_style sphere", "atom_modify map hash", "boundary p p f",
+                "region box block 0 6 0 6 0 20", "create_box 1 box",
+                "neigh_modify every 1 delay 0 check yes", "comm_modify vel yes",
+                "group grains empty", "region top block 0.5 5.5 0.5 5.5 14 18",
+                "fix dep grains deposit 250 1 10 29494 region top near 1.0 vz -2 -2",
+                "fix g grains gravity 1.0 vector 0 0 -1", "fix 1 grains nve/sphere",
+                "fix hs grains hardsphere wall zlo 0.5 restitution 0.5", "thermo_modify norm no",
+                "timestep 0.005", "run 3000"});
+  const long n = lmp.natoms();
+  const auto x = lmp.gather("x", 3), rad = lmp.gather("radius", 1);
+  const double period[3] = {6.0, 6.0, 0.0};
+  const double gap = closest_gap(x, rad, period);
+  double floor_gap = 1e300;
+  for (long i = 0; i < n; ++i) floor_gap = std::min(floor_gap, x[3 * i + 2] - rad[i]);
+  const double coll = lmp.fix_vector("hs", 1), maxev = lmp.fix_vector("hs", 4);
+  std::printf("[ HS       ] fix deposit into an empty group: %ld atoms, %.0f collisions, most "
+              "events in a step %.0f, closest pair %.3g and floor %.3g from contact\n",
+              n, coll, maxev, gap, floor_gap);
+  EXPECT_EQ(n, 250);
+  EXPECT_DOUBLE_EQ(largest(rad), 0.5);
+  EXPECT_GT(coll, 1000.0);
+  EXPECT_GT(gap, -1e-9);
+  EXPECT_GT(floor_gap, -1e-9);
+  EXPECT_GT(maxev, 0.0);
+  expect_sane_outputs(lmp, "hs", n);
+}
+
 TEST(FixHardSphere, BadInputStopsWithANamedError)
 {
   const std::vector<std::string> box = {"units lj",
@@ -692,13 +944,16 @@ TEST(FixHardSphere, BadInputStopsWithANamedError)
          "neigh_modify every 1 delay 0 check yes", "fix hs all hardsphere wall zhi 1.0", "run 0"});
     EXPECT_THAT(err, HasSubstr("wall zhi needs a fixed boundary ('f')"));
   }
-  // Atoms too fast for the reach the ghost atoms cover.
+  // Atoms too fast for what a periodic box lets the fix cover (the ghost cutoff is raised to
+  // cover twice their drift, but a pair must be found through one image only).
   {
     Lammps lmp;
     lmp.commands(box);
     const std::string err = lmp.first_error({"set atom 2 x 7", "velocity all set 30 0 0",
                                              "fix hs all hardsphere", "timestep 0.1", "run 1"});
-    EXPECT_THAT(err, HasSubstr("more than the reach 0.5 its ghost atoms cover"));
+    EXPECT_THAT(err, HasSubstr("an atom moved 3 in one step (step 1), more than the periodic box "
+                               "length 10 along x lets the fix cover (2:"));
+    EXPECT_THAT(err, HasSubstr("reduce the timestep"));
   }
   // More events than allowed in a step: error, or warn and go on.
   {

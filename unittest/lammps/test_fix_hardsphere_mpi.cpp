@@ -201,6 +201,66 @@ TEST(FixHardSphereMPI, SerialOrderOnAllRanksAgreesWithParallelOnOne)
   compare("serial", "parallel");
 }
 
+// Issue 12 item 9 on several ranks: a small sphere squeezed by a big one outruns the fix's
+// reach 0.25 and the fix raises the ghost cutoff at a reneighboring it asks for.  The decision
+// is taken from maxima over all ranks, so every decomposition raises it at the same step and
+// the trajectory is that of one rank, bitwise.
+TEST(FixHardSphereMPI, SqueezeRaisesTheGhostCutoffAsOnOneRank)
+{
+  int me = 0, np = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  struct Result {
+    std::vector<double> x, v;
+    double raised, coll;
+  };
+  auto run = [](MPI_Comm comm) {
+    Lammps lmp(comm);
+    lmp.commands({"units lj",
+                  "atom_style sphere",
+                  "atom_modify map array",
+                  "boundary p p f",
+                  "region box block 0 50 0 50 0 30",
+                  "create_box 2 box",
+                  "create_atoms 1 single 25 25 0.5 units box",
+                  "create_atoms 2 single 25.5 25 6.6 units box",
+                  "create_atoms 1 single 10 40 0.5 units box",
+                  "set type 1 diameter 1.0",
+                  "set type 2 diameter 10.0",
+                  "set type * density 1.0",
+                  "comm_modify vel yes",
+                  "neigh_modify every 1 delay 0 check yes",
+                  "fix 1 all nve/sphere",
+                  "fix g all gravity 1.0 vector 0 0 -1",
+                  "group big type 2",
+                  "velocity big set 0 0 -5",
+                  "thermo_modify norm no",
+                  "timestep 0.005",
+                  "fix hs all hardsphere restitution 0.9 wall zlo 0.9 wall zhi 1.0 reach 0.25",
+                  "run 400"});
+    Result r;
+    r.x = lmp.gather("x", 3);
+    r.v = lmp.gather("v", 3);
+    r.raised = lmp.fix_vector("hs", 21);
+    r.coll = lmp.fix_vector("hs", 1);
+    return r;
+  };
+  const Result world = run(MPI_COMM_WORLD);
+  if (me == 0) {
+    const Result single = run(MPI_COMM_SELF);
+    EXPECT_GE(single.raised, 1.0);
+    EXPECT_GE(single.coll, 10.0);
+    EXPECT_EQ(world.raised, single.raised);
+    EXPECT_EQ(world.coll, single.coll);
+    EXPECT_EQ(max_abs_diff(world.x, single.x), 0.0);
+    EXPECT_EQ(max_abs_diff(world.v, single.v), 0.0);
+    std::printf("[ MPI      ] squeeze, %d ranks vs 1: %.0f collisions, ghost cutoff raised %.0f "
+                "times, max |dx| %.2g\n",
+                np, single.coll, single.raised, max_abs_diff(world.x, single.x));
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+}
+
 TEST(FixHardSphereMPI, MissingGhostVelocitiesAreReportedOnSeveralRanks)
 {
   int np = 1;

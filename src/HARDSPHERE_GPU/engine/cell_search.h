@@ -3,6 +3,12 @@
    (O(n) work and memory), so that the search follows each step's own displacement budget
    rather than a cutoff fixed at setup.
 
+   Mixed sizes: where a few points have radii far above the rest (diameters 1 and 10), cells as
+   wide as the largest pair range would hold hundreds of small points each.  The points are
+   then split in two classes: the small ones get cells sized for them, the large ones (at most
+   about n/32 of them) cells of their own, and each large point is searched against the small
+   cells within its own range.  Every pair is still found once.
+
    No LAMMPS, MPI or CUDA here. */
 #ifndef HSGPU_ENGINE_CELL_SEARCH_H
 #define HSGPU_ENGINE_CELL_SEARCH_H
@@ -21,19 +27,47 @@ namespace Collide {
     void find(const double *x, const double *rad, int n, int nsearch, double rmax, double extra,
               std::vector<int> &pairs);
 
-    /// Cells of the last call (for reports).
-    long cells() const { return ncell[0] * ncell[1] * ncell[2]; }
-    /// Width of the last call's cells: every point within this distance of point i is among
-    /// neighbors(i).
-    double cell_width() const { return width_used; }
-    /// Appends to `out` the points of the last call in the 27 cells around point i's.
+    /// Cells of the last call (both classes; for reports).
+    long cells() const { return small.cells() + (nbig > 0 ? big.cells() : 0); }
+    /// Points of the last call in the class of large radii (0: one class).
+    int large_points() const { return nbig; }
+    /// Width of the last call's cells of the small class: every point within this distance of
+    /// point i is among neighbors(i).
+    double cell_width() const { return small.width; }
+    /// Appends to `out` the points of the last call in the 27 cells around point i's (in each
+    /// class's cells).
     void neighbors(int i, std::vector<int> &out) const;
+    /// Appends to `out` the points of the last call in the cells that overlap the cube of
+    /// half-edge `range` around point i: every point within `range` of it, and others.
+    void within(int i, double range, std::vector<int> &out) const;
 
    private:
-    long ncell[3] = {1, 1, 1};
-    double width_used = 0.0;
-    std::vector<int> cell_of, start, order;
-    std::vector<double> sorted;
+    /// A cell list of some of the points (members), over a box given by the caller.
+    struct Grid {
+      double lo[3] = {0.0, 0.0, 0.0}, inv[3] = {1.0, 1.0, 1.0};
+      double width = 0.0;
+      long ncell[3] = {1, 1, 1};
+      std::vector<int> start, order;    // order: point indices in cell order
+      std::vector<double> sorted;       // x, y, z, radius per member, in cell order
+      std::vector<int> fill;
+
+      long cells() const { return ncell[0] * ncell[1] * ncell[2]; }
+      /// Cells at least `width` wide (coarsened to about 2 m cells at most) over [lo, hi].
+      void build(const double *x, const double *rad, const std::vector<int> &members,
+                 const double *blo, const double *bhi, double width);
+      long coord(double p, int d) const;
+      /// Pairs of members (half stencil), within rad_i + rad_j + extra.
+      void pairs(int nsearch, double extra, std::vector<int> &out) const;
+      /// Members in the cells overlapping [p - range, p + range].
+      void box(const double *p, double range, std::vector<int> &out) const;
+    };
+
+    Grid small, big;
+    int nbig = 0;
+    std::vector<double> pos;            // the last call's points
+    std::vector<int> members, large;    // point indices of the two classes
+    std::vector<double> tmp;
+    std::vector<int> tmp_idx;
   };
 
 }    // namespace Collide
