@@ -73,11 +73,6 @@ namespace Collide {
     // looks ahead from vmax2, the speeds at the step's start).
     double vend2 = 0.0;
     long bytes_up = 0;    // run_atoms(): bytes copied to the device for the step
-    // run_atoms() on `done`: the largest squared half-step speed of the atoms at the step's
-    // end (after its collisions), for the fix's look ahead at the next step's moves
-    // (FixHardSphere::plan_ghost_raise()); 0 where the step does not find it (the fix then
-    // looks ahead from vmax2, the speeds at the step's start).
-    double vend2 = 0.0;
   };
 
   /// A caller's per-atom arrays, when every atom is a body (ResidentStep::run_atoms): the
