@@ -21,6 +21,10 @@
                                         21 candidate pairs, last step (ext)
                                         22 ghost cutoff raised during runs, in total
                                         23 largest step reach the ghost atoms cover now
+                                        24 the fix's MPI collectives, last step
+                                        25 the fix's ghost updates, last step
+                                        26 bytes the fix's communication brought, last
+                                           step, summed over the ranks (ext)
 ------------------------------------------------------------------------------------- */
 
 #include "fix_hardsphere.h"
@@ -57,7 +61,7 @@ namespace {
 
 constexpr double NEVER_COLLIDED = -1.0e30;    // tlast of an atom that never collided
 const char *const FACES[HSGPU::Collide::NFACES] = {"xlo", "xhi", "ylo", "yhi", "zlo", "zhi"};
-constexpr int NVECTOR = 23;
+constexpr int NVECTOR = 26;
 constexpr int DEFAULT_MAXPUSH = 1000;    // overlap push passes before giving up
 constexpr int RESTART_FORMAT = 2;        // global restart data: -format, count, values
 
@@ -92,7 +96,8 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
   size_vector = NVECTOR;
   global_freq = 1;
   extvector = -1;
-  extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0, 0, 0, 1, 0, 0};
+  extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1, 0, 1, 0, 0, 1, 0, 0,
+                             1, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
   virial_global_flag = 1;
   virial_peratom_flag = 1;    // on the steps LAMMPS asks for it (compute stress/atom)
   thermo_virial = 1;
@@ -522,6 +527,15 @@ double FixHardSphere::compute_vector(int n)
     return n_ghost_raise;
   case 22:
     return ghost_reach();
+  case 23:
+    return comm_last.collectives;
+  case 24:
+    return comm_last.halos;
+  case 25: {
+    double all = 0.0;
+    MPI_Allreduce(&comm_last.bytes, &all, 1, MPI_DOUBLE, MPI_SUM, world);
+    return all;
+  }
   default:
     return 0.0;
   }

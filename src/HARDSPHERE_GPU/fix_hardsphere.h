@@ -109,7 +109,17 @@ class FixHardSphere : public Fix {
   double n_declined;         // steps the device handed back to the host, in total
   double last_candidates;    // candidate pairs of the last step on this rank
   double n_ghost_raise;      // ghost cutoff raised during runs, in total
-  struct RunSummary {        // this run, for the line post_run() logs
+  // The fix's own MPI communication during a step (none on one rank): collective operations
+  // (the same count on every rank), ghost updates (LAMMPS forward communications), and the
+  // bytes this rank received (the other ranks' shares of the collectives, and the ghost
+  // updates' values for ghosts of atoms owned by other ranks).
+  struct CommCount {
+    double collectives = 0.0, halos = 0.0, bytes = 0.0;
+  };
+  CommCount comm_step;      // this step so far
+  CommCount comm_last;      // the last step
+  int remote_ghosts = 0;    // ghosts of atoms owned by another rank (set by forward_state())
+  struct RunSummary {       // this run, for the line post_run() logs
     bigint steps = 0;
     double pairs = 0.0, events = 0.0, largest = 0.0, windows = 0.0, groups = 0.0;
     double boundary = 0.0, gathers = 0.0, repairs = 0.0, redos = 0.0;
@@ -118,7 +128,8 @@ class FixHardSphere : public Fix {
     bigint resident = 0;        // steps carried out on the device
     double t_transfer = 0.0;    // seconds copying bodies to the device and back
     double bytes_up = 0.0;      // bytes of atom arrays copied to the device (whole steps)
-    bigint declined[5] = {0, 0, 0, 0, 0};    // steps handed back, by ResidentOutcome
+    double collectives = 0.0, halos = 0.0, bytes = 0.0;    // communication (this rank's)
+    bigint declined[5] = {0, 0, 0, 0, 0};                  // steps handed back, by ResidentOutcome
   } run_sum;
 
   // --- per-step work ----------------------------------------------------------------------
@@ -187,6 +198,9 @@ class FixHardSphere : public Fix {
   double current_tc() const;
   HSGPU::Collide::Params step_params() const;
   void forward_state(double drift_dt);
+  void allreduce(const void *in, void *out, int n, MPI_Datatype type, MPI_Op op);
+  void count_collective(double bytes);
+  void count_halo(int nval);
   void step_budget();
   void check_budget(double vmax2, double amax, double rmax_seen);
   double ghost_reach() const;

@@ -38,6 +38,7 @@ void LammpsExchange::to_foreign(const std::vector<double> &local, int nval,
   fix->fwd_nval = nval;
   HsgpuCompat::forward_comm(fix->comm, fix);
   fix->fwd_nval = 0;
+  fix->count_halo(nval);
   const size_t nf = fix->foreign_ghost.size();
   foreign.resize(nval * nf);
   for (size_t f = 0; f < nf; ++f) {
@@ -53,14 +54,17 @@ void LammpsExchange::allgather(const std::vector<double> &send, std::vector<doub
   if (!HSGPU::allgather_doubles(fix->world, send, recv, counts, displs))
     fix->error->all(FLERR, "Fix hardsphere: too many atoms in groups that span ranks");
   mine = displs[fix->comm->me];
+  // Two collectives: the counts, then the other ranks' values.
+  fix->count_collective((double) (fix->comm->nprocs - 1) * sizeof(int));
+  fix->count_collective((double) (recv.size() - send.size()) * sizeof(double));
 }
 
 void LammpsExchange::max(double *v, int n)
 {
-  MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_DOUBLE, MPI_MAX, fix->world);
+  fix->allreduce(MPI_IN_PLACE, v, n, MPI_DOUBLE, MPI_MAX);
 }
 
 void LammpsExchange::sum(long *v, int n)
 {
-  MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_LONG, MPI_SUM, fix->world);
+  fix->allreduce(MPI_IN_PLACE, v, n, MPI_LONG, MPI_SUM);
 }

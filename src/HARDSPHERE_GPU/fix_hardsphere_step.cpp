@@ -114,6 +114,38 @@ void FixHardSphere::forward_state(double drift_dt)
     g[9] = step_bound(i, drift_dt);
   }
   HsgpuCompat::forward_comm(comm, this);
+  // Ghosts whose owner is another rank: their values came in a message.
+  remote_ghosts = 0;
+  const int nall = nlocal + atom->nghost;
+  for (int j = nlocal; j < nall; ++j)
+    if ((int) gdata[(size_t) NFWD * j + 7] != comm->me) ++remote_ghosts;
+  count_halo(NFWD);
+}
+
+/* MPI_Allreduce over the world, counted in the step's communication. */
+void FixHardSphere::allreduce(const void *in, void *out, int n, MPI_Datatype type, MPI_Op op)
+{
+  MPI_Allreduce(const_cast<void *>(in), out, n, type, op, world);
+  int size = 0;
+  MPI_Type_size(type, &size);
+  count_collective((double) n * size);
+}
+
+/* A collective operation of the step carrying `bytes` to this rank (none on one rank). */
+void FixHardSphere::count_collective(double bytes)
+{
+  if (comm->nprocs == 1) return;
+  comm_step.collectives += 1.0;
+  comm_step.bytes += bytes;
+}
+
+/* A ghost update of nval values per atom (none on one rank): the ghosts of atoms owned by
+   other ranks received theirs. */
+void FixHardSphere::count_halo(int nval)
+{
+  if (comm->nprocs == 1) return;
+  comm_step.halos += 1.0;
+  comm_step.bytes += (double) remote_ghosts * nval * sizeof(double);
 }
 
 /* Atom i's displacement bound for the step: twice its drift, at least bound_floor (or what a
@@ -138,7 +170,7 @@ void FixHardSphere::step_budget()
     loc[1] = std::max(loc[1], HSGPU::Collide::accel_magnitude(f[i], ftm2v, atom->rmass[i]));
     loc[2] = std::max(loc[2], atom->radius[i]);
   }
-  MPI_Allreduce(loc, glob, 3, MPI_DOUBLE, MPI_MAX, world);
+  allreduce(loc, glob, 3, MPI_DOUBLE, MPI_MAX);
   check_budget(glob[0], glob[1], glob[2]);
 }
 
@@ -547,7 +579,7 @@ void FixHardSphere::report_overlap(int npush, int left)
   std::vector<double> all((size_t) 5 * comm->nprocs);
   MPI_Allgather(ovl, 5, MPI_DOUBLE, all.data(), 5, MPI_DOUBLE, world);
   double depth = 0.0;
-  MPI_Allreduce(&ovl_depth, &depth, 1, MPI_DOUBLE, MPI_MAX, world);
+  allreduce(&ovl_depth, &depth, 1, MPI_DOUBLE, MPI_MAX);
   int best = -1;
   for (int p = 0; p < comm->nprocs; ++p) {
     const double *o = &all[(size_t) 5 * p];
@@ -587,7 +619,7 @@ int FixHardSphere::overlap_pass(double drift_dt, int pass, double &moved)
   forward_state(drift_dt);
   const int found = build(drift_dt, overlap_push && pass < maxpush);
   int any = 0;
-  MPI_Allreduce(&found, &any, 1, MPI_INT, MPI_SUM, world);
+  allreduce(&found, &any, 1, MPI_INT, MPI_SUM);
   if (!any) return 0;
   if (!overlap_push || pass >= maxpush) report_overlap(pass, any);
   double **x = atom->x;
@@ -597,7 +629,7 @@ int FixHardSphere::overlap_pass(double drift_dt, int pass, double &moved)
     for (int d = 0; d < 3; ++d) x[b.owner][d] += u[d];
     m = std::max(m, u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
   }
-  MPI_Allreduce(&m, &moved, 1, MPI_DOUBLE, MPI_MAX, world);
+  allreduce(&m, &moved, 1, MPI_DOUBLE, MPI_MAX);
   moved = std::sqrt(moved);
   n_push += any;
   return any;
@@ -821,20 +853,20 @@ void FixHardSphere::resolve(Tally &mine, Tally &all)
   if (comm->me == 0) mine.add(tg);
   sum_tallies(mine, all);
   int capped = tl.capped | tg.capped;
-  MPI_Allreduce(&capped, &all.capped, 1, MPI_INT, MPI_MAX, world);
+  allreduce(&capped, &all.capped, 1, MPI_INT, MPI_MAX);
 }
 
 /* Sums over the ranks of this rank's share of the tallies. */
 void FixHardSphere::sum_tallies(const Tally &mine, Tally &all)
 {
   long cnt[4] = {mine.pair, mine.wall, mine.rest, mine.events}, gcnt[4];
-  MPI_Allreduce(cnt, gcnt, 4, MPI_LONG, MPI_SUM, world);
+  allreduce(cnt, gcnt, 4, MPI_LONG, MPI_SUM);
   all = Tally();
   all.pair = gcnt[0];
   all.wall = gcnt[1];
   all.rest = gcnt[2];
   all.events = gcnt[3];
-  MPI_Allreduce(&mine.ke_lost, &all.ke_lost, 1, MPI_DOUBLE, MPI_SUM, world);
+  allreduce(&mine.ke_lost, &all.ke_lost, 1, MPI_DOUBLE, MPI_SUM);
 }
 
 /* Positions and half-step velocities of the atoms that had events, and everyone's time of
@@ -944,7 +976,7 @@ bool FixHardSphere::step_exact()
     loc[0] = std::max(loc[0], bexc[b]);
     if (bexc[b] > sbound[b]) loc[1] = 1.0;
   }
-  MPI_Allreduce(loc, glob, 2, MPI_DOUBLE, MPI_MAX, world);
+  allreduce(loc, glob, 2, MPI_DOUBLE, MPI_MAX);
   if (glob[0] > reach) {
     // Beyond this step's reach: all that the ghosts cover, or stop.
     const double cap = ghost_reach();
@@ -980,7 +1012,7 @@ bool FixHardSphere::step_exact()
     }
   }
   int any = 0;
-  MPI_Allreduce(&missed, &any, 1, MPI_INT, MPI_MAX, world);
+  allreduce(&missed, &any, 1, MPI_INT, MPI_MAX);
   return any == 0;
 }
 
@@ -1029,7 +1061,7 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
     for (Body &b : bodies) HSGPU::Collide::end_of_step(b, dt, xe, ve);
     sum_tallies(mine, all);
     int capped = mine.capped;
-    MPI_Allreduce(&capped, &all.capped, 1, MPI_INT, MPI_MAX, world);
+    allreduce(&capped, &all.capped, 1, MPI_INT, MPI_MAX);
     n_repair += (double) stats.repairs;
     const bool exact = all.capped || step_exact();
     t_resolve += MPI_Wtime() - t0;
@@ -1147,6 +1179,7 @@ void FixHardSphere::post_integrate()
 {
   const double t_start = MPI_Wtime();
   const double dt = update->dt;
+  comm_step = CommCount();
   // Per-atom virial on the steps LAMMPS asks for it (Integrate::ev_set sets vflag_atom to the
   // step before post_integrate); v_init zeroes vatom then, and sets vflag_atom.
   virial_init(update->vflag_atom == update->ntimestep ? VIRIAL_ATOM : 0);
@@ -1187,7 +1220,7 @@ void FixHardSphere::post_integrate()
   // ahead of it where needed.
   {
     double v2 = std::max(step_vmax2, vend2), gv2 = 0.0;
-    MPI_Allreduce(&v2, &gv2, 1, MPI_DOUBLE, MPI_MAX, world);
+    allreduce(&v2, &gv2, 1, MPI_DOUBLE, MPI_MAX);
     plan_ghost_raise(std::sqrt(gv2) * dt + step_amax * dt * dt);
   }
   if (vflag_atom) {
@@ -1212,6 +1245,10 @@ void FixHardSphere::post_integrate()
   run_sum.groups += last_groups;
   run_sum.boundary += last_boundary;
   run_sum.gathers += last_gathers;
+  comm_last = comm_step;
+  run_sum.collectives += comm_step.collectives;
+  run_sum.halos += comm_step.halos;
+  run_sum.bytes += comm_step.bytes;
   const double spent = MPI_Wtime() - t_start;
   t_step += spent;
   run_sum.t_step += spent;
@@ -1222,7 +1259,11 @@ void FixHardSphere::post_integrate()
 void FixHardSphere::post_run()
 {
   const RunSummary &r = run_sum;
-  if (r.steps == 0 || comm->me != 0) return;
+  if (r.steps == 0) return;
+  // The bytes all ranks received (every rank takes part in the sum).
+  double bytes = 0.0;
+  if (comm->nprocs > 1) MPI_Allreduce(&r.bytes, &bytes, 1, MPI_DOUBLE, MPI_SUM, world);
+  if (comm->me != 0) return;
   const double n = (double) r.steps;
   utils::logmesg(lmp,
                  "Fix hardsphere ({} order, {} backend): {} steps, {:.6g} collisions and {:.6g} "
@@ -1237,6 +1278,11 @@ void FixHardSphere::post_run()
                  n_redo + r.redos, r.boundary / n, r.gathers / n, t_search + r.t_search,
                  t_resolve + r.t_resolve, 1e3 * r.t_step / n,
                  r.steps > 1 ? 1e3 * (r.t_step - r.t_first) / (n - 1) : 1e3 * r.t_step);
+  if (comm->nprocs > 1)
+    utils::logmesg(lmp,
+                   "Fix hardsphere: communication per step: {:.4g} collective operations, {:.4g} "
+                   "ghost updates, {:.4g} kB received by all {} ranks together\n",
+                   r.collectives / n, r.halos / n, 1e-3 * bytes / n, comm->nprocs);
   if (resident) {
     using HSGPU::Collide::ResidentOutcome;
     auto back = [&](ResidentOutcome o) { return r.declined[(int) o]; };

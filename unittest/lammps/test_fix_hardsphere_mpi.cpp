@@ -26,6 +26,7 @@ struct Snapshot {
   double press;
   double sred[6], pvir[6], wsum[3];    // per-atom virial: sums, -V x the global one, weighted
   double dmean = 0.0, mmean = 0.0;     // mean |sum - global| and mean |sum| over the steps
+  double comm[3];                      // f_hs[24 ... 26]: the last step's communication
 };
 
 // 500 spheres of two sizes in a box periodic in x and y with floor and roof, under gravity.
@@ -89,6 +90,7 @@ Snapshot run_on(MPI_Comm comm, const std::string &order, int steps, bool pair_gr
   s.x = lmp.gather("x", 3);
   s.v = lmp.gather("v", 3);
   for (int i = 0; i < 6; ++i) s.f[i] = lmp.fix_vector("hs", i);
+  for (int i = 0; i < 3; ++i) s.comm[i] = lmp.fix_vector("hs", 23 + i);
   s.press = lmp.compute_scalar("p");
   return s;
 }
@@ -280,6 +282,37 @@ TEST(FixHardSphereMPI, MissingGhostVelocitiesAreReportedOnSeveralRanks)
 // overlap push on every rank of MPI_COMM_WORLD: random placement at packing fraction 0.3, whose
 // relaxation moves atoms across subdomains (they are exchanged between passes), ends with no
 // overlap and no atom lost, and a short run after it stays free of overlaps.
+// f_hs[24 ... 26]: the fix's own communication in the last step.  None on one rank; on several,
+// at least one collective and one ghost update, the same counts on every rank, and at least the
+// ghost update's 10 values for each ghost of an atom another rank owns.
+TEST(FixHardSphereMPI, CommunicationOfTheStepIsCounted)
+{
+  int me = 0, np = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  const Snapshot s = run_on(MPI_COMM_WORLD, "parallel", 50);
+  if (np == 1) {
+    EXPECT_EQ(s.comm[0], 0.0);
+    EXPECT_EQ(s.comm[1], 0.0);
+    EXPECT_EQ(s.comm[2], 0.0);
+    return;
+  }
+  EXPECT_GE(s.comm[0], 3.0) << "the budget, the tallies and the step's check at least";
+  EXPECT_GE(s.comm[1], 1.0) << "the ghosts' update of the step";
+  // A 2 x 1 x 1 or finer split of an 11-wide box with a ghost cutoff of 3.5 gives every rank
+  // ghosts of another rank's atoms: at least 10 doubles each.
+  EXPECT_GT(s.comm[2], 80.0 * 20);
+  double lo[2] = {s.comm[0], s.comm[1]}, hi[2] = {s.comm[0], s.comm[1]}, glo[2], ghi[2];
+  MPI_Allreduce(lo, glo, 2, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
+  MPI_Allreduce(hi, ghi, 2, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  EXPECT_EQ(glo[0], ghi[0]) << "collectives counted alike on every rank";
+  EXPECT_EQ(glo[1], ghi[1]) << "ghost updates counted alike on every rank";
+  if (me == 0)
+    std::printf("[ MPI      ] %d ranks, last step: %.0f collectives, %.0f ghost updates, %.0f "
+                "bytes received\n",
+                np, s.comm[0], s.comm[1], s.comm[2]);
+}
+
 TEST(FixHardSphereMPI, OverlapPushRelaxesRandomPlacementAcrossRanks)
 {
   int me = 0;
