@@ -95,23 +95,24 @@ TEST(ResidentStepCuda, DeclinesWhatItCannotFinish)
   EXPECT_EQ(run(start, capped, box), ResidentOutcome::capped);
 }
 
-// run_atoms() does a step whose check fails again on the device with raised bounds: atoms at
-// rest get the tiniest step bound, the moving ones hit them and push them into neighbours
-// that were not candidates.  The result is bit for bit that of the same step with bounds wide
-// enough to need no second try (the step is exact whatever the candidates).
-TEST(ResidentStepCuda, StepRedoneWithRaisedBoundsIsExact)
-{
-  if (HSGPU::GPU::device_count() == 0) GTEST_SKIP() << "no CUDA device";
-  std::unique_ptr<ResidentStep> rs = make_cuda_resident_step(0);
-  const int side = 12, n = side * side * side;
-  const double dt = 0.3;
-  int redone = 0;
-  // Gaps of 0.02 to 0.25 between the spheres' surfaces on the lattice.
-  for (const double spacing : {1.02, 1.05, 1.1, 1.25}) {
-    std::vector<double> x(3 * n), v(3 * n, 0.0), f(3 * n, 0.0), radius(n, 0.5), rmass(n, 1.0),
-        tlast(n, -1e30);
-    std::vector<int> type(n, 1), id(n);
-    unsigned seed = 12345;
+namespace {
+
+// A periodic simple cubic lattice of side^3 spheres of diameter 1 and mass 1, `spacing` apart,
+// elastic, at rest or with velocities in [-1, 1) from a fixed seed (every atom, or every other
+// one); x holds the lattice points.  Not copyable: p.epair points into it.
+struct LatticeGas {
+  int n;
+  std::vector<double> x, v, f, radius, rmass;
+  std::vector<int> type, id;
+  std::vector<double> epair = {0, 0, 0, 1.0};
+  Params p{};
+  ResidentBox box;
+  WindowSettings s;
+
+  LatticeGas(int side, double spacing, double dt, unsigned seed, int moving_every) :
+      n(side * side * side), x(3 * n), v(3 * n, 0.0), f(3 * n, 0.0), radius(n, 0.5), rmass(n, 1.0),
+      type(n, 1), id(n)
+  {
     auto uniform = [&seed]() {
       seed = seed * 1103515245u + 12345u;
       return ((seed >> 8) & 0xffff) / 32768.0 - 1.0;
@@ -120,18 +121,14 @@ TEST(ResidentStepCuda, StepRedoneWithRaisedBoundsIsExact)
       const int c[3] = {i % side, (i / side) % side, i / (side * side)};
       id[i] = i + 1;
       for (int d = 0; d < 3; ++d) {
-        if (i % 2 == 0) v[3 * i + d] = uniform();
-        // x: the drift's end point, start point + v dt
-        x[3 * i + d] = (c[d] + 0.5) * spacing + v[3 * i + d] * dt;
+        if (i % moving_every == 0) v[3 * i + d] = uniform();
+        x[3 * i + d] = (c[d] + 0.5) * spacing;
       }
     }
-    std::vector<double> epair = {0, 0, 0, 1.0};
-    Params p{};
     p.dt = dt;
     p.ntypes = 1;
     p.epair = epair.data();
     p.maxevents = 1000000;
-    ResidentBox box;
     for (int d = 0; d < 3; ++d) {
       box.lo[d] = 0.0;
       box.prd[d] = side * spacing;
@@ -139,29 +136,62 @@ TEST(ResidentStepCuda, StepRedoneWithRaisedBoundsIsExact)
     }
     box.overlap_tol = 1e-9;
     box.reach = 1.0;
-    WindowSettings s;
+  }
+  LatticeGas(const LatticeGas &) = delete;
+  LatticeGas &operator=(const LatticeGas &) = delete;
+
+  /// The atoms for run_atoms(): these positions, velocities, times of last collision and
+  /// radii, the scene's other arrays.
+  ResidentAtoms atoms(double *xs, double *vs, double *tlast, const double *rad,
+                      double bound_floor) const
+  {
+    ResidentAtoms a;
+    a.n = n;
+    a.x = xs;
+    a.v = vs;
+    a.tlast = tlast;
+    a.f = f.data();
+    a.radius = rad;
+    a.rmass = rmass.data();
+    a.type = type.data();
+    a.id = id.data();
+    a.id_bytes = (int) sizeof(int);
+    a.ftm2v = 1.0;
+    a.bound_floor = bound_floor;
+    a.reach = box.reach;
+    a.never = -1e30;
+    return a;
+  }
+};
+
+}    // namespace
+
+// run_atoms() does a step whose check fails again on the device with raised bounds: atoms at
+// rest get the tiniest step bound, the moving ones hit them and push them into neighbours
+// that were not candidates.  The result is bit for bit that of the same step with bounds wide
+// enough to need no second try (the step is exact whatever the candidates).
+TEST(ResidentStepCuda, StepRedoneWithRaisedBoundsIsExact)
+{
+  if (HSGPU::GPU::device_count() == 0) GTEST_SKIP() << "no CUDA device";
+  std::unique_ptr<ResidentStep> rs = make_cuda_resident_step(0);
+  const double dt = 0.3;
+  int redone = 0;
+  // Gaps of 0.02 to 0.25 between the spheres' surfaces on the lattice.
+  for (const double spacing : {1.02, 1.05, 1.1, 1.25}) {
+    LatticeGas g(12, spacing, dt, 12345, 2);
+    // x: the drift's end point, start point + v dt
+    for (size_t k = 0; k < g.x.size(); ++k) g.x[k] += g.v[k] * dt;
+    const std::vector<double> tlast(g.n, -1e30);
     struct Out {
       std::vector<double> x, v, tlast;
       Tally t;
       ResidentReport rep;
     };
     auto step = [&](double floor) {
-      Out o{x, v, tlast, Tally(), ResidentReport()};
-      ResidentAtoms a;
-      a.n = n;
-      a.x = o.x.data();
-      a.v = o.v.data();
-      a.tlast = o.tlast.data();
-      a.f = f.data();
-      a.radius = radius.data();
-      a.rmass = rmass.data();
-      a.type = type.data();
-      a.id = id.data();
-      a.id_bytes = (int) sizeof(int);
-      a.ftm2v = 1.0;
-      a.bound_floor = floor;
-      a.reach = box.reach;
-      rs->run_atoms(a, box, p, s, o.t, o.rep);
+      Out o{g.x, g.v, tlast, Tally(), ResidentReport()};
+      const ResidentAtoms a =
+          g.atoms(o.x.data(), o.v.data(), o.tlast.data(), g.radius.data(), floor);
+      rs->run_atoms(a, g.box, g.p, g.s, o.t, o.rep);
       return o;
     };
     const Out tight = step(1e-9), wide = step(1.0);
@@ -171,8 +201,8 @@ TEST(ResidentStepCuda, StepRedoneWithRaisedBoundsIsExact)
     EXPECT_GT(wide.t.pair, 20) << "enough collisions to mean anything";
     EXPECT_EQ(tight.t.pair, wide.t.pair) << "spacing " << spacing;
     EXPECT_EQ(tight.t.events, wide.t.events) << "spacing " << spacing;
-    EXPECT_EQ(0, std::memcmp(tight.x.data(), wide.x.data(), x.size() * sizeof(double)));
-    EXPECT_EQ(0, std::memcmp(tight.v.data(), wide.v.data(), v.size() * sizeof(double)));
+    EXPECT_EQ(0, std::memcmp(tight.x.data(), wide.x.data(), g.x.size() * sizeof(double)));
+    EXPECT_EQ(0, std::memcmp(tight.v.data(), wide.v.data(), g.v.size() * sizeof(double)));
     EXPECT_EQ(0, std::memcmp(tight.tlast.data(), wide.tlast.data(), tlast.size() * sizeof(double)));
     std::printf("[ REDO     ] spacing %.2f: %ld pair collisions, %d tries more with tight bounds\n",
                 spacing, wide.t.pair, tight.rep.redone);
@@ -184,42 +214,14 @@ TEST(ResidentStepCuda, StepRedoneWithRaisedBoundsIsExact)
 // run_atoms() keeps tlast, radius, rmass, type and id on the device between steps where the
 // caller says they are unchanged (ResidentAtoms::same_atoms): three steps of a lattice gas give
 // bit for bit what three steps copying everything give, with 72 bytes per atom copied up
-// instead of 104; arrays that moved are copied again whatever the caller says.
+// instead of 104; arrays that moved are copied again whatever the caller says.  Each step also
+// reports the largest squared speed at its end as the host finds it.
 TEST(ResidentStepCuda, KeepsUnchangedArraysOnTheDevice)
 {
   if (HSGPU::GPU::device_count() == 0) GTEST_SKIP() << "no CUDA device";
-  const int side = 12, n = side * side * side;
-  const double dt = 0.2, spacing = 1.1;
-  std::vector<double> x0(3 * n), v0(3 * n), f(3 * n, 0.0), radius(n, 0.5), rmass(n, 1.0);
-  std::vector<int> type(n, 1), id(n);
-  unsigned seed = 777;
-  auto uniform = [&seed]() {
-    seed = seed * 1103515245u + 12345u;
-    return ((seed >> 8) & 0xffff) / 32768.0 - 1.0;
-  };
-  for (int i = 0; i < n; ++i) {
-    const int c[3] = {i % side, (i / side) % side, i / (side * side)};
-    id[i] = i + 1;
-    for (int d = 0; d < 3; ++d) {
-      v0[3 * i + d] = uniform();
-      x0[3 * i + d] = (c[d] + 0.5) * spacing;
-    }
-  }
-  std::vector<double> epair = {0, 0, 0, 1.0};
-  Params p{};
-  p.dt = dt;
-  p.ntypes = 1;
-  p.epair = epair.data();
-  p.maxevents = 1000000;
-  ResidentBox box;
-  for (int d = 0; d < 3; ++d) {
-    box.lo[d] = 0.0;
-    box.prd[d] = side * spacing;
-    box.periodic[d] = 1;
-  }
-  box.overlap_tol = 1e-9;
-  box.reach = 1.0;
-  WindowSettings s;
+  const double dt = 0.2;
+  const LatticeGas g(12, 1.1, dt, 777, 1);
+  const int n = g.n;
   struct Run {
     std::unique_ptr<ResidentStep> rs = make_cuda_resident_step(0);
     std::vector<double> x, v, tlast;
@@ -229,25 +231,11 @@ TEST(ResidentStepCuda, KeepsUnchangedArraysOnTheDevice)
   // One step: the drift (x += v dt, as the integrator does between steps), then the device.
   auto step = [&](Run &r, bool same, const std::vector<double> &rad) {
     for (int k = 0; k < 3 * n; ++k) r.x[k] += r.v[k] * dt;
-    ResidentAtoms a;
-    a.n = n;
-    a.x = r.x.data();
-    a.v = r.v.data();
-    a.tlast = r.tlast.data();
-    a.f = f.data();
-    a.radius = rad.data();
-    a.rmass = rmass.data();
-    a.type = type.data();
-    a.id = id.data();
-    a.id_bytes = (int) sizeof(int);
-    a.ftm2v = 1.0;
-    a.bound_floor = -1.0;
-    a.reach = box.reach;
-    a.never = -1e30;
+    ResidentAtoms a = g.atoms(r.x.data(), r.v.data(), r.tlast.data(), rad.data(), -1.0);
     a.same_atoms = same;
     Tally t;
     ResidentReport rep;
-    r.rs->run_atoms(a, box, p, s, t, rep);
+    r.rs->run_atoms(a, g.box, g.p, g.s, t, rep);
     EXPECT_EQ(rep.outcome, ResidentOutcome::done);
     // The largest squared speed at the step end, as the host's apply_results() finds it.
     double vend2 = 0.0;
@@ -261,24 +249,24 @@ TEST(ResidentStepCuda, KeepsUnchangedArraysOnTheDevice)
   };
   Run keep, copy;
   for (Run *r : {&keep, &copy}) {
-    r->x = x0;
-    r->v = v0;
+    r->x = g.x;
+    r->v = g.v;
     r->tlast.assign(n, -1e30);
   }
   for (int k = 0; k < 3; ++k) {
-    step(keep, k > 0, radius);
-    step(copy, false, radius);
+    step(keep, k > 0, g.radius);
+    step(copy, false, g.radius);
   }
   EXPECT_GT(keep.pairs, 50) << "enough collisions to mean anything";
   EXPECT_EQ(keep.pairs, copy.pairs);
-  EXPECT_EQ(0, std::memcmp(keep.x.data(), copy.x.data(), x0.size() * sizeof(double)));
-  EXPECT_EQ(0, std::memcmp(keep.v.data(), copy.v.data(), v0.size() * sizeof(double)));
+  EXPECT_EQ(0, std::memcmp(keep.x.data(), copy.x.data(), g.x.size() * sizeof(double)));
+  EXPECT_EQ(0, std::memcmp(keep.v.data(), copy.v.data(), g.v.size() * sizeof(double)));
   EXPECT_EQ(0, std::memcmp(keep.tlast.data(), copy.tlast.data(), n * sizeof(double)));
   const long all = 104L * n, moving = 72L * n;
   EXPECT_EQ(keep.bytes_up, (std::vector<long>{all, moving, moving}));
   EXPECT_EQ(copy.bytes_up, (std::vector<long>{all, all, all}));
   // The radii now lie elsewhere: copied up although the caller says nothing changed.
-  const std::vector<double> moved = radius;
+  const std::vector<double> moved = g.radius;
   step(keep, true, moved);
   EXPECT_EQ(keep.bytes_up.back(), all);
 }
