@@ -8,12 +8,13 @@
 # build-dir: where the plugin and its tests were built (default build/).  one: the one-rank
 # cases; mpi: 1 against 2 and 4 ranks and the restarts; all (default): both.  Environment:
 # HSGPU_HARD_EVENTS (events per case, default 1e7), HSGPU_HARD_NP (rank counts, default "2 4").
-# The full output goes to <build-dir>/hard_cases_long.log; the table is printed at the end.
+# GTEST_FILTER picks cases (e.g. GTEST_FILTER="*Pour*").  The full output goes to
+# <build-dir>/hard_cases_long_<one|mpi|all>.log; the table is printed at the end.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 build=$(cd "${1:-$HSGPU_ROOT/build}" && pwd)
 which=${2:-all}
-log=$build/hard_cases_long.log
+log=$build/hard_cases_long_$which.log
 mpiexec=$(sed -n 's/^MPIEXEC_EXECUTABLE:FILEPATH=//p' "$build/CMakeCache.txt")
 cores=$(nproc)
 mpi_env

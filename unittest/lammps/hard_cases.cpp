@@ -196,7 +196,9 @@ Result run_scene(Lammps &lmp, const Scene &s, bool long_run)
     ++r.chunks;
     const double ev = lmp.fix_vector("hs", 5), rem = lmp.fix_vector("hs", 3);
     r.last_per_sphere_step = (ev - events) / ((double) r.natoms * k);
-    r.drift += total_energy(lmp, s) + (rem - removed) - e_start;
+    const double balance = total_energy(lmp, s) + (rem - removed) - e_start;
+    r.drift += balance;
+    if (e_start != 0.0) r.chunk_drift = std::max(r.chunk_drift, std::fabs(balance / e_start));
     events = ev;
     removed = rem;
     if (trace) {
@@ -237,9 +239,14 @@ void print_row(const Scene &s, const Result &r)
   if (s.pour)
     std::snprintf(per, sizeof(per), "%.2f (%.1f)", r.last_per_sphere_step,
                   r.max_events_step / (double) r.natoms);
-  std::printf("[ HARD     ] | %s | %ld | %ld | %.4g | %.3g | %.2e | %ld | %.1e | %s |%s\n",
+  char balance[64];
+  if (s.place)
+    std::snprintf(balance, sizeof(balance), "%.1e per step", r.chunk_drift);
+  else
+    std::snprintf(balance, sizeof(balance), "%.1e", r.drift);
+  std::printf("[ HARD     ] | %s | %ld | %ld | %.4g | %.3g | %.2e | %ld | %s | %s |%s\n",
               s.name.c_str(), r.natoms, r.steps, r.events,
-              r.seconds > 0.0 ? r.events / r.seconds : 0.0, r.gap.worst, r.gap.overlaps, r.drift,
+              r.seconds > 0.0 ? r.events / r.seconds : 0.0, r.gap.worst, r.gap.overlaps, balance,
               per, r.error.empty() ? "" : (" ERROR: " + r.error).c_str());
   std::fflush(stdout);
 }

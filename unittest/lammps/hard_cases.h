@@ -62,6 +62,9 @@ struct Result {
   Gap gap;               // over all checks
   double e0 = 0.0;       // total energy at the start (kinetic + m g h)
   double drift = 0.0;    // sum over chunks of (E_end + removed - E_start), relative to e0
+  // The largest |E_end + removed - E_start| / E_start of a chunk: the figure of a micro scene,
+  // whose energy is set anew before every step.
+  double chunk_drift = 0.0;
   double last_per_sphere_step = 0.0;    // events per sphere per step in the last chunk
   double max_events_step = 0.0;         // f_hs[5]
   double ke_end = 0.0, energy_removed = 0.0;

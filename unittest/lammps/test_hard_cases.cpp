@@ -27,7 +27,8 @@ Result run(const Scene &s, double drift, double least_events)
   EXPECT_EQ(r.error, "") << s.name;
   EXPECT_EQ(r.gap.overlaps, 0) << s.name;
   EXPECT_GT(r.gap.worst, -kOverlap) << s.name;
-  EXPECT_LT(std::fabs(r.drift), drift) << s.name;
+  // A micro scene is placed anew before every step: its balance is that of the worst step.
+  EXPECT_LT(s.place ? r.chunk_drift : std::fabs(r.drift), drift) << s.name;
   EXPECT_GE(r.events, long_mode() ? target_events() : least_events) << s.name;
   EXPECT_GE(r.steps, s.steps) << s.name;
   return r;
