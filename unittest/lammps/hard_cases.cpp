@@ -445,14 +445,14 @@ Scene mpi_pile(bool long_size)
 {
   Scene s = pour(0.5, false);
   s.name = "pile (e = 0.5) from one data file";
-  const int n = long_size ? 12 : 8, layers = 4;
+  const int n = long_size ? 12 : 6, layers = 4;
   s.atoms = block_on_floor(n, layers, 1.2, 5.0, 5.0 + layers * 1.2 + 5.0);
   s.atoms.insert(s.atoms.end(), {"set type 1 diameter 1.0", "set type 1 mass 1.0",
                                  "velocity all create 0.05 87287 loop geom"});
   s.fixes = dynamics("restitution 0.5 wall zlo 0.5 wall zhi 0.5", 0.01);
   s.fixes.push_back("fix g all gravity 1.0 vector 0 0 -1");
   s.prepare = {"run 1000"};    // settles into a pile (t = 10) before the data file is written
-  s.steps = 400;
+  s.steps = 200;
   s.chunk = long_size ? 1000 : 100;
   return s;
 }
@@ -461,10 +461,10 @@ Scene mpi_fluid(bool long_size)
 {
   Scene s = crystal("fcc", 0.45, false);
   s.name = "dense fluid (packing fraction 0.45) from one data file";
-  const int n = long_size ? 8 : 5;
+  const int n = long_size ? 8 : 4;
   s.atoms[1] = line("region box block 0 %d 0 %d 0 %d", n, n, n);
   s.prepare = {"run 200"};    // melts the lattice
-  s.steps = 400;
+  s.steps = 200;
   s.chunk = long_size ? 1000 : 100;
   return s;
 }
