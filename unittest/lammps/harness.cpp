@@ -142,4 +142,26 @@ double Lammps::variable(const char *name)
   return v;
 }
 
+void Lammps::scatter(const char *name, int count, std::vector<double> &data)
+{
+  char buf[64];
+  std::strncpy(buf, name, sizeof(buf) - 1);
+  buf[sizeof(buf) - 1] = '\0';
+  lammps_scatter_atoms(lmp, buf, 1, count, data.data());
+}
+
+void Lammps::box(double lo[3], double hi[3], int periodic[3])
+{
+  double xy = 0.0, yz = 0.0, xz = 0.0;
+  int changes = 0;
+  lammps_extract_box(lmp, lo, hi, &xy, &yz, &xz, periodic, &changes);
+}
+
+double Lammps::global(const char *name)
+{
+  auto *p = (double *) lammps_extract_global(lmp, name);
+  if (!p) throw std::runtime_error(std::string("no global value ") + name);
+  return *p;
+}
+
 }    // namespace hsgpu_test

@@ -38,6 +38,13 @@ class Lammps {
   double fix_vector(const char *id, int i);
   // Value of equal-style variable `name` (NaN where there is none).
   double variable(const char *name);
+  // Sets per-atom double vector `name` ("x", "v") of count entries per atom, in atom-ID order
+  // (atom_modify map needed), from the same data on every rank.
+  void scatter(const char *name, int count, std::vector<double> &data);
+  // The box bounds and its periodicity per dimension.
+  void box(double lo[3], double hi[3], int periodic[3]);
+  // A global value that LAMMPS's library interface extracts as a double ("mvv2e", "dt").
+  double global(const char *name);
   void *handle() { return lmp; }
 
  private:
