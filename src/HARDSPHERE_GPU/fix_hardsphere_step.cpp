@@ -83,6 +83,7 @@ Params FixHardSphere::step_params() const
   p.dt = update->dt;
   p.tc = current_tc();
   p.vmin = vmin;
+  p.tcslow = tc_slow;
   p.walls = walls;
   for (int f = 0; f < HSGPU::Collide::NFACES; ++f)
     p.walls.pos[f] = (f & 1) ? domain->boxhi[f / 2] : domain->boxlo[f / 2];

@@ -1123,6 +1123,51 @@ TEST(FixHardSphere, SettledPileStaysAtRestWithDefaultGuards)
   EXPECT_LT(lmp.fix_vector("hs", 4), 20.0 * n);
 }
 
+// A pile with perfectly inelastic collisions (e = 0 between spheres and with the floor) under
+// the default guards (tc/slow yes) settles and stays at rest at a bounded cost per step (the
+// TC model still acts on its slow collisions; without it, tc 1e-7, a pour collapses).
+TEST(FixHardSphere, PerfectlyInelasticPileSettlesAtBoundedCost)
+{
+  Lammps lmp;
+  lmp.commands({"units lj",
+                "atom_style sphere",
+                "atom_modify map array",
+                "boundary p p f",
+                "region box block 0 8.4 0 8.4 0 30",
+                "create_box 1 box",
+                "lattice sc 0.5787037037037037 origin 0.5 0.5 0.5",    // spacing 1.2
+                "region block block 0 8.4 0 8.4 5 12.2 units box",
+                "create_atoms 1 region block",
+                "set type 1 diameter 1.0",
+                "set type 1 mass 1.0",
+                "velocity all create 0.05 87287 loop geom",
+                "comm_modify cutoff 2.5",
+                "neigh_modify every 1 delay 0 check yes",
+                "fix 1 all nve/sphere",
+                "fix g all gravity 1.0 vector 0 0 -1",
+                "fix hs all hardsphere restitution 0 wall zlo 0 wall zhi 0",
+                "compute zmax all reduce max z",
+                "thermo_style custom step ke c_zmax",
+                "thermo_modify norm no",
+                "timestep 0.01",
+                "run 2000"});
+  const long n = lmp.natoms();
+  const double ev0 = lmp.fix_vector("hs", 5), top0 = lmp.compute_scalar("zmax");
+  lmp.commands({"run 500"});
+  const double per_step = (lmp.fix_vector("hs", 5) - ev0) / (500.0 * n);
+  const double ke = lmp.thermo("ke"), top = lmp.compute_scalar("zmax");
+  const double scale = n * 1.0 * (1.0 * 0.01) * (1.0 * 0.01);    // N m (g dt)^2
+  std::printf("[ HS       ] e = 0 pile of %ld: %.2f events per sphere per step from t = 20 to 25, "
+              "KE %.3g N m (g dt)^2, top %.4f -> %.4f, most in a step %.0f\n",
+              n, per_step, ke / scale, top0, top, lmp.fix_vector("hs", 4));
+  EXPECT_GT(n, 200);
+  EXPECT_LT(per_step, 8.0);
+  EXPECT_LT(lmp.fix_vector("hs", 4), 20.0 * n);
+  EXPECT_LT(std::fabs(top - top0), 0.05);
+  EXPECT_LT(top, 5.0);    // a pile about 4 layers high, not a gas
+  EXPECT_LT(ke, 30.0 * scale);
+}
+
 // Where no CUDA device is usable (or the plugin was built without CUDA), 'gpu yes' runs the CPU
 // backend (rank 0 warns): f_hs[17] says -1 and the trajectory is the CPU one.
 TEST(FixHardSphere, GpuRequestFallsBackToCpuWithoutDevice)

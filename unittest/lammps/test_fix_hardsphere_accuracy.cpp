@@ -154,3 +154,43 @@ TEST(FixHardSphereAccuracy, WithPairForcesTheErrorIsSecondOrder)
   EXPECT_LT(cmax / cmin, 16.0);
   EXPECT_LT(err[nk - 1], 1e-6);
 }
+
+namespace {
+
+// A column of 1000 spheres (diameter 0.9, simple cubic lattice of spacing 1, T = 1) falling
+// under g = 1 with restitution 0.9 (a smaller in.column): its kinetic energy per atom at t = 1.
+double falling_column_ke(double dt, const std::string &guards)
+{
+  Lammps lmp;
+  lmp.commands({"units lj", "atom_style sphere", "atom_modify map array", "boundary p p fm",
+                "comm_modify cutoff 2.5", "region box block 0 10 0 10 0 30", "create_box 1 box",
+                "lattice sc 1.0", "region fill block 0 10 0 10 10 20", "create_atoms 1 region fill",
+                "set type 1 diameter 0.9 density 2.3578", "velocity all create 1.0 4928 loop geom",
+                "neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere",
+                "fix 2 all gravity 1.0 vector 0 0 -1",
+                "fix hs all hardsphere restitution 0.9 wall zlo 0.9 " + guards,
+                "timestep " + num(dt), "run " + std::to_string((long) std::lround(1.0 / dt))});
+  return lmp.thermo("ke");
+}
+
+}    // namespace
+
+// Under a uniform field the pair collisions are exact for any timestep; the default guards
+// (tc/slow yes) must leave a falling column unbiased: the same kinetic energy at t = 1 at two
+// timesteps and with the TC model practically off (tc 1e-7, exact).  The old default
+// (tc/slow no: every collision within dt/2 of a partner's previous one elastic) is 3-6 % off.
+TEST(FixHardSphereAccuracy, FallingColumnDoesNotDependOnTheTimestepWithDefaultGuards)
+{
+  const double exact = falling_column_ke(0.01, "tc 1e-7");
+  const double exact2 = falling_column_ke(0.005, "tc 1e-7");
+  const double d1 = falling_column_ke(0.01, "");
+  const double d2 = falling_column_ke(0.005, "");
+  const double old1 = falling_column_ke(0.01, "tc/slow no");
+  std::printf("[ HS       ] falling column KE/N at t = 1: tc 1e-7 %.9g (dt 0.01), %.9g (0.005); "
+              "defaults %.9g, %.9g; tc/slow no %.9g (dt 0.01)\n",
+              exact, exact2, d1, d2, old1);
+  EXPECT_NEAR(exact2 / exact, 1.0, 1e-6);
+  EXPECT_NEAR(d1 / exact, 1.0, 5e-3);
+  EXPECT_NEAR(d2 / exact, 1.0, 5e-3);
+  EXPECT_GT(std::fabs(old1 / exact - 1.0), 2e-2);    // what the old default did
+}

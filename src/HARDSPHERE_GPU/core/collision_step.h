@@ -39,6 +39,26 @@
 namespace HSGPU {
 namespace Collide {
 
+  /// tcslow: a collision is slow when its normal speed is below SLOW_ACCEL |a| tc (|a| the
+  /// larger acceleration of the partners: what the field builds up in 16 tc) or below
+  /// SLOW_FRACTION of the sum of the partners' speeds (the end of a collapse sequence, which
+  /// needs no field).
+  constexpr double SLOW_ACCEL = 16.0;
+  constexpr double SLOW_FRACTION = 0.1;
+
+  HSGPU_HD double norm3(const double *a)
+  {
+    return sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+  }
+
+  /// The TC time a collision with normal speed |un| gets when the TC model applies only to
+  /// slow collisions (tcslow): tc if the collision is slow (above), else 0.  amax: the larger
+  /// of the partners' |a|; vsum: the sum of their drift speeds.
+  HSGPU_HD double slow_tc(double tc, double un, double amax, double vsum)
+  {
+    return (fabs(un) < SLOW_ACCEL * amax * tc || fabs(un) < SLOW_FRACTION * vsum) ? tc : 0.0;
+  }
+
   /// Pair collision of bodies i and j (edge e) at time t.  wi, wj: the bodies' per-atom
   /// virial accumulators, or nullptr.
   HSGPU_HD void process_pair(Body &bi, Body &bj, const Edge &e, double t, const Params &p,
@@ -75,8 +95,11 @@ namespace Collide {
 
     const double ut = vn + an * (t - 0.5 * p.dt);    // true normal relative velocity
     const double e0 = p.epair[bi.type * (p.ntypes + 1) + bj.type];
+    const double tcp =
+        p.tcslow ? slow_tc(p.tc, ut, fmax(norm3(bi.a), norm3(bj.a)), norm3(bi.v) + norm3(bj.v))
+                 : p.tc;
     const double e1 =
-        Impulse::effective_restitution(e0, t - bi.tlast, t - bj.tlast, p.tc, ut, p.vmin);
+        Impulse::effective_restitution(e0, t - bi.tlast, t - bj.tlast, tcp, ut, p.vmin);
     const double meff = Impulse::reduced_mass(bi.mass, bj.mass);
     double J = Impulse::pair_impulse(ut, meff, e1);
     const double Jstop = -meff * vn;    // stops the approach of the drift lines
@@ -131,8 +154,9 @@ namespace Collide {
     b.nevents++;
     tally.events++;
 
+    const double tcw = p.tcslow ? slow_tc(p.tc, un, norm3(b.a), norm3(b.v)) : p.tc;
     const double e1 =
-        Impulse::effective_restitution(p.walls.e[f], t - b.tlast, t - b.tlast, p.tc, un, p.vmin);
+        Impulse::effective_restitution(p.walls.e[f], t - b.tlast, t - b.tlast, tcw, un, p.vmin);
     double un_out = -e1 * un;
     const double an = s * b.a[d];
     if (an < 0.0 && (un_out == 0.0 || 2.0 * un_out < -an * p.tc)) {

@@ -73,6 +73,7 @@ namespace Collide {
     double dt;
     double tc;      // TC-model time (also the resting criterion)
     double vmin;    // elastic threshold on the normal relative speed
+    int tcslow;     // 1: the TC model applies only to slow collisions (collision_step.h)
     Walls walls;
     int ntypes;
     const double *epair;    // restitution of type pair (ti, tj) at ti * (ntypes + 1) + tj
