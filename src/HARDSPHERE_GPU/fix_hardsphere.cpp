@@ -76,7 +76,7 @@ double restitution_arg(const char *arg, LAMMPS *lmp)
 }    // namespace
 
 FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
-    Fix(lmp, narg, arg), serial_order(0), nwindows_user(0), tc_user(-1.0), vmin(0.0), tc_slow(1),
+    Fix(lmp, narg, arg), serial_order(0), nwindows_user(0), tc_user(-1.0), vmin(0.0), vmin_auto(1), tc_slow(1),
     maxevents_user(-1), maxevents_warn(0), overlap_push(0), maxpush(DEFAULT_MAXPUSH),
     reach_user(-1.0), gpu_requested(0), device_request(-1), backend_device(-1), rmax(0.0),
     reach_base(0.0), reach(0.0), reach_raise(0.0), list_cut(0.0), raise_drift(0.0), step_vmax2(0.0),
@@ -138,7 +138,7 @@ FixHardSphere::~FixHardSphere()
 }
 
 /* fix ID group hardsphere [restitution e] [restitution/pair I J e] [wall face e] ...
-   [order parallel|serial] [tc t|auto] [tc/slow yes|no] [vmin v]
+   [order parallel|serial] [tc t|auto] [tc/slow yes|no] [vmin v|auto]
    [maxevents N error|warn]
    [overlap error|push] [maxpush N] [reach d] [gpu yes|no] [device auto|N] */
 void FixHardSphere::parse(int narg, char **arg)
@@ -226,8 +226,14 @@ void FixHardSphere::parse(int narg, char **arg)
       iarg += 2;
     } else if (strcmp(kw, "vmin") == 0) {
       need(1, kw);
-      vmin = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
-      if (vmin < 0.0) error->all(FLERR, "Fix hardsphere: vmin must be >= 0");
+      if (strcmp(arg[iarg + 1], "auto") == 0) {
+        vmin_auto = 1;
+        vmin = 0.0;
+      } else {
+        vmin_auto = 0;
+        vmin = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+        if (vmin < 0.0) error->all(FLERR, "Fix hardsphere: vmin must be >= 0 or auto");
+      }
       iarg += 2;
     } else if (strcmp(kw, "maxevents") == 0) {
       need(2, kw);

@@ -64,6 +64,7 @@ class FixHardSphere : public Fix {
   int nwindows_user;        // windows per step, 0: adaptive
   double tc_user;           // TC-model time, < 0: auto (dt / 2)
   double vmin;              // elastic threshold on |v_n|
+  int vmin_auto;            // 1: the threshold is VMIN_AUTO_ATC |a| tc (vmin auto)
   int tc_slow;              // 1: the TC model applies only to slow collisions
   bigint maxevents_user;    // cap on events per step, < 0: auto
   int maxevents_warn;       // 1: warn when capped, 0: error

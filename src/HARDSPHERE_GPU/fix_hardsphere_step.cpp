@@ -83,6 +83,7 @@ Params FixHardSphere::step_params() const
   p.dt = update->dt;
   p.tc = current_tc();
   p.vmin = vmin;
+  p.vmin_atc = vmin_auto ? HSGPU::Collide::VMIN_AUTO_ATC : 0.0;
   p.tcslow = tc_slow;
   p.walls = walls;
   for (int f = 0; f < HSGPU::Collide::NFACES; ++f)

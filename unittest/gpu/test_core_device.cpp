@@ -134,6 +134,8 @@ CoreCase make_case(Gen &g, int k)
   p.dt = g.coin() ? 0.01 : g.logu(-4, -1);
   p.tc = g.coin(0.3) ? 0.0 : g.u(0.0, 0.5 * p.dt);
   p.vmin = g.coin(0.5) ? 0.0 : g.logu(-4, -1);
+  p.vmin_atc = g.coin(0.5) ? 0.0 : 30.0;    // vmin auto (collision_step.h)
+  p.tcslow = g.coin(0.5) ? 1 : 0;
   for (int f = 0; f < NFACES; ++f) {
     p.walls.on[f] = g.coin(0.4);
     p.walls.pos[f] = (f & 1) ? 10.0 : 0.0;

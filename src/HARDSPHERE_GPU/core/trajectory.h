@@ -74,6 +74,7 @@ namespace Collide {
     double tc;      // TC-model time (also the resting criterion)
     double vmin;    // elastic threshold on the normal relative speed
     int tcslow;     // 1: the TC model applies only to slow collisions (collision_step.h)
+    double vmin_atc;    // elastic also below vmin_atc |a| tc (|a|: the partners' larger)
     Walls walls;
     int ntypes;
     const double *epair;    // restitution of type pair (ti, tj) at ti * (ntypes + 1) + tj
