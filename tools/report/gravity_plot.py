@@ -181,12 +181,15 @@ def plot(path, outdir, gpu):
                           label=lab + " (RMS)")
         ax.loglog([r["ms_per_step"] for r in rs], [r["max_rel"] for r in rs], m + ":",
                   color=line.get_color(), mfc="none", label=lab + " (max)")
-        for r in rs:
-            ax.annotate(str(r["N"]), (r["ms_per_step"], r["rms_rel"]), fontsize=7,
-                        textcoords="offset points", xytext=(4, -8))
+        if not (lab.startswith("CPU") and rs[0]["threads"] > 1):   # one label per N
+            for r in rs:
+                ax.annotate(str(r["N"]), (r["ms_per_step"], r["rms_rel"]), fontsize=7,
+                            textcoords="offset points", xytext=(4, -8))
     ax.set_xlabel("ms per step (whole LAMMPS step)")
     ax.set_ylabel("relative force error |F - F_ref| / |F_ref|")
-    ax.set_title("pair_style gravity: force error against time per step" + note, fontsize=10)
+    ax.set_title("pair_style gravity: force error against time per step (labels: N)\n"
+                 "reference: CPU against a long-double sum, GPU against the CPU" + note,
+                 fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     fig.tight_layout()
@@ -280,10 +283,12 @@ def summary(path, gpu):
                 f"{max(r['rms_rel'] for r in rs):.2g} against the CPU (largest "
                 f"{max(r['max_rel'] for r in rs):.2g}); {fmt(big['ms_per_step'])} ms per step at "
                 f"N = {big['N']}")
-        c = [r for r in cpu if r["N"] == big["N"] and r["threads"] == ths[-1]]
-        if c:
-            line += (f", {c[0]['ms_per_step'] / big['ms_per_step']:.3g}x faster than the CPU on "
-                     f"{ths[-1]} thread" + ("s" if ths[-1] > 1 else ""))
+        common = [r for r in rs if any(c["N"] == r["N"] for c in cpu)]
+        if common:
+            g = common[-1]
+            c = [r for r in cpu if r["N"] == g["N"] and r["threads"] == ths[-1]][0]
+            line += (f"; at N = {g['N']} {c['ms_per_step'] / g['ms_per_step']:.3g}x faster than "
+                     f"the CPU on {ths[-1]} thread" + ("s" if ths[-1] > 1 else ""))
         print(line + ".")
 
 
