@@ -45,7 +45,10 @@ lammps_version() {
 page_header() {
   local title=$1 mode=$2 commit
   commit=$(git -C "$HSGPU_ROOT" rev-parse --short HEAD 2>/dev/null || echo unknown)
-  if ! git -C "$HSGPU_ROOT" diff --quiet HEAD 2>/dev/null; then commit="$commit (with local changes)"; fi
+  # The report's own pages do not count as local changes: regenerating them changes them.
+  if ! git -C "$HSGPU_ROOT" diff --quiet HEAD -- . ':(exclude)doc/report' 2>/dev/null; then
+    commit="$commit (with local changes)"
+  fi
   cat <<HDR
 # $title
 

@@ -227,8 +227,7 @@ def summary(path):
         text += (f"; order serial's fix step is {min(ratio):.2g} to {max(ratio):.2g}x the default "
                  "order's, " + ("a difference that the gravity hides in the whole step"
                                 if max(fix) < 10 else "a difference that shows in the whole step"))
-    print(text + ". Both orders resolve the same collisions (the same counts in the table); "
-          "the paper's Figures 7-9 timed the same whole system.")
+    print(text + ". Both orders resolve the same collisions (the same counts in the tables).")
 
 def main(argv):
     if len(argv) < 2:
