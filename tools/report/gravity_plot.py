@@ -259,9 +259,8 @@ def summary(path, gpu):
         sp = at[ths[0]]["ms_per_step"] / at[ths[-1]]["ms_per_step"]
         line += f"; {sp:.2f}x from {ths[-1]} threads"
         if sp < 0.75 * ths[-1]:
-            line += (f" (well below {ths[-1]}x: other work shared the cores, see the load "
-                     "average above, so take the threaded times as a lower bound of what the "
-                     "threads give)")
+            line += (f" (well below {ths[-1]}x; other work may have shared the cores, see the "
+                     "load average above)")
     one = sorted((r for r in cpu if r["threads"] == ths[0]), key=lambda r: r["N"])
     if len(one) > 1:
         a, b = one[0], one[-1]
