@@ -149,8 +149,8 @@ virial), and the error of the forces of one force-only step against a reference,
 **The CPU path** computes in double precision only (the \`precision\` keyword applies to the
 GPU; see [pair_gravity.md](../pair_gravity.md)). Its loop over a rank's atoms runs on
 LAMMPS's OpenMP threads (\`OMP_NUM_THREADS\` at startup), so it is timed on 1 thread and on
-all $maxth usable threads of this machine (one MPI rank). Its reference is a direct sum
-written in numpy in long double (64-bit mantissa, $("$py" -c 'import numpy as np; print(np.finfo(np.longdouble).eps)' 2>/dev/null || echo '1.1e-19') machine epsilon; numpy's
+$maxth (all usable CPUs of this machine), one MPI rank. Its reference is a direct sum
+written in numpy in long double (machine epsilon $("$py" -c 'import numpy as np; print("%.2g" % np.finfo(np.longdouble).eps)'), against 2.2e-16 for double; numpy's
 pairwise summation, a different order from the CPU path's sum in atom-ID order) from the exact
 double positions LAMMPS wrote (\`%.17g\`), over all targets up to N = $ld_all and over
 $ld_sample targets spread over the IDs above. $bitwise $gpu_note

@@ -193,7 +193,7 @@ def summary(path):
         rates = [r["collision_rate"] for r in rs]
         line = (f"- {config}: {min(rates):.4f} to {max(rates):.4f} collisions per particle per "
                 f"step. At N = {d['N']} on the CPU a step takes {fmt(d['ms_per_step'])} ms in "
-                f"the default order, {fmt(100 * d['pair_ms_per_step'] / d['ms_per_step'], 2)} % "
+                f"the default order, {100 * d['pair_ms_per_step'] / d['ms_per_step']:.1f} % "
                 f"of it the all-pairs gravity; the fix's own step is "
                 f"{fmt(d['fix_ms_per_step'])} ms in the default order and "
                 f"{fmt(s['fix_ms_per_step'])} ms in order serial "
