@@ -30,6 +30,8 @@ has_gpu() {
 cpu_model() { lscpu | sed -n 's/^Model name: *//p' | head -n1; }
 # Physical cores: unique (core, socket) pairs.
 physical_cores() { lscpu -p=core,socket | grep -v '^#' | sort -u | wc -l; }
+# Usable CPUs: nproc without the OMP_NUM_THREADS=1 of report_env (GNU nproc obeys it).
+usable_cpus() { env -u OMP_NUM_THREADS -u OMP_THREAD_LIMIT nproc; }
 gpu_model() {
   if has_gpu; then nvidia-smi --query-gpu=name --format=csv,noheader | head -n1
   else echo "none"; fi
@@ -43,12 +45,15 @@ lammps_version() {
 page_header() {
   local title=$1 mode=$2 commit
   commit=$(git -C "$HSGPU_ROOT" rev-parse --short HEAD 2>/dev/null || echo unknown)
-  if ! git -C "$HSGPU_ROOT" diff --quiet HEAD 2>/dev/null; then commit="$commit (with local changes)"; fi
+  # The report's own pages do not count as local changes: regenerating them changes them.
+  if ! git -C "$HSGPU_ROOT" diff --quiet HEAD -- . ':(exclude)doc/report' 2>/dev/null; then
+    commit="$commit (with local changes)"
+  fi
   cat <<HDR
 # $title
 
 Made by \`$HSGPU_REPORT_CMD\` ($mode mode) on $(date -u '+%Y-%m-%d %H:%M UTC'): $(cpu_model),
-$(physical_cores) physical cores ($(nproc) usable), GPU: $(gpu_model); LAMMPS $(lammps_version);
+$(physical_cores) physical cores ($(usable_cpus) usable), GPU: $(gpu_model); LAMMPS $(lammps_version);
 HARDSPHERE_GPU $commit. Runs are one MPI rank, one OpenMP thread unless a table says
 otherwise; times are LAMMPS's wall-clock timers on a machine that may be shared.
 
@@ -67,5 +72,16 @@ lmp_run() {
 # loop_time <log>: seconds of LAMMPS's last "Loop time of" line.
 loop_time() { sed -n 's/^Loop time of \([0-9.e+-]*\) on.*/\1/p' "$1" | tail -n1; }
 
+# report_python: the Python that has the packages tools/report.sh installs (Debian's
+# python3-matplotlib and python3-numpy are in /usr/bin/python3; another python3, e.g. pyenv's,
+# may come first on PATH without them).
+report_python() {
+  if ! python3 -c 'import matplotlib, numpy' 2>/dev/null && [ -x /usr/bin/python3 ]; then
+    echo /usr/bin/python3
+  else
+    echo python3
+  fi
+}
+
 # python_plot <script.py> [args...]: runs a plotting script with matplotlib's file backend.
-python_plot() { MPLBACKEND=Agg python3 "$@"; }
+python_plot() { MPLBACKEND=Agg "$(report_python)" "$@"; }
