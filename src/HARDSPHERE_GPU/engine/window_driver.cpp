@@ -127,15 +127,33 @@ namespace Collide {
   {
     const int nb = (int) bodies.size(), nf = (int) foreign.size();
     const double delta = t1 - t0;
+    // The window's start points, the bodies' bound rates and the edges' gaps there depend on
+    // t0 only: the chooser's tries of one window (several ends t1) compute them once.
+    if (!start_cached) {
+      rate.resize(nb);
+      for (int b = 0; b < nb; ++b) {
+        Body &bd = bodies[b];
+        drift_position(bd, t0, bd.w0);
+        bd.wexc2 = 0.0;
+        const double speed = std::sqrt(Contact::dot3(bd.v, bd.v));
+        rate[b] = std::max(s.bound_factor * speed, speed_floor);
+      }
+      egap.resize(edges.size());
+      emargin.resize(edges.size());
+      for (size_t q = 0; q < edges.size(); ++q) {
+        const Edge &e = edges[q];
+        const Body &bi = bodies[e.i], &bj = bodies[e.j];
+        const double s2 = bi.radius + bj.radius;
+        egap[q] = window_gap(bi.w0, bj.w0, e.shift, s2);
+        emargin[q] = MARGIN * s2;
+      }
+      start_cached = true;
+    }
     bound.resize(nb);
     wstate.resize((size_t) 4 * nb);
     for (int b = 0; b < nb; ++b) {
-      Body &bd = bodies[b];
-      drift_position(bd, t0, bd.w0);
-      bd.wexc2 = 0.0;
-      const double speed = std::sqrt(Contact::dot3(bd.v, bd.v));
-      bound[b] = std::max(s.bound_factor * speed, speed_floor) * delta;
-      for (int d = 0; d < 3; ++d) wstate[(size_t) 4 * b + d] = bd.w0[d];
+      bound[b] = rate[b] * delta;
+      for (int d = 0; d < 3; ++d) wstate[(size_t) 4 * b + d] = bodies[b].w0[d];
       wstate[(size_t) 4 * b + 3] = bound[b];
     }
     if (ex.nranks() > 1) ex.to_foreign(wstate, 4, fstate);
@@ -144,9 +162,7 @@ namespace Collide {
     ljoined.assign(edges.size(), 0);
     for (size_t q = 0; q < edges.size(); ++q) {
       const Edge &e = edges[q];
-      const Body &bi = bodies[e.i], &bj = bodies[e.j];
-      const double s2 = bi.radius + bj.radius;
-      if (window_gap(bi.w0, bj.w0, e.shift, s2) <= bound[e.i] + bound[e.j] + MARGIN * s2) {
+      if (egap[q] <= bound[e.i] + bound[e.j] + emargin[q]) {
         wedges.push_back(e);
         ljoined[q] = 1;
       }
@@ -528,6 +544,7 @@ namespace Collide {
     int k = 0;
     while (t0 < dt) {
       long largest;
+      start_cached = false;    // a new window start: window_edges() computes its start points
       const double t1 = chooser.next(
           t0, k, dt, s, target,
           [&](double t) { return window_edges(bodies, edges, fedges, foreign, t0, t, s, ex); },

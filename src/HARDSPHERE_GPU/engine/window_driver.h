@@ -126,6 +126,10 @@ namespace Collide {
     std::vector<Edge> subedges;
     std::vector<int> sub_of, substart, submembers, subgroups;
     std::vector<double> bound, fstate, wstate, fexc, lexc;
+    // window_edges() of one window start: each body's bound per unit of window length, each
+    // edge's gap and margin at the start; start_cached while the chooser tries that window.
+    std::vector<double> rate, egap, emargin;
+    bool start_cached = false;
     std::vector<Edge> wedges;    // local window edges
     std::vector<char> fjoined, ljoined;
     std::vector<int> fwin;    // indices of foreign edges joined in the window
