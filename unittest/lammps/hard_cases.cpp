@@ -282,8 +282,8 @@ Scene pour(double e, bool long_size)
   s.header = kHeader3d;
   // The short box, 5 x 1.2 = 6 diameters wide, gets 0.1 more: a whole number of diameters lets
   // a bottom row close into a ring of touching spheres round the periodic width, which the
-  // guards do not cover (DISABLED_JammedRingOfDisksStaysBounded); with LAMMPS 29 Sep 2021 the
-  // e = 0.5 pour settled into such rows and stopped at step 2036 on maxevents.
+  // guards do not cover (DISABLED_JammedRingOfDisksStaysBounded); with tc/slow yes and vmin 0
+  // the e = 0.5 pour settled into such rows and stopped at step 2036 on maxevents.
   const double margin = long_size ? 0.0 : 0.1;
   s.atoms = block_on_floor(n, layers, a, 5.0, 5.0 + layers * a + 5.0, margin);
   s.atoms.insert(s.atoms.end(), {"set type 1 diameter 1.0", "set type 1 mass 1.0",
