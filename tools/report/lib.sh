@@ -41,14 +41,16 @@ lammps_version() {
 
 # page_header <title> <mode>: the lines every page starts with.
 page_header() {
-  local title=$1 mode=$2 commit
+  local title=$1 mode=$2 commit usable
+  # nproc obeys OMP_NUM_THREADS, which report_env sets to 1
+  usable=$(env -u OMP_NUM_THREADS -u OMP_THREAD_LIMIT nproc)
   commit=$(git -C "$HSGPU_ROOT" rev-parse --short HEAD 2>/dev/null || echo unknown)
   if ! git -C "$HSGPU_ROOT" diff --quiet HEAD 2>/dev/null; then commit="$commit (with local changes)"; fi
   cat <<HDR
 # $title
 
 Made by \`$HSGPU_REPORT_CMD\` ($mode mode) on $(date -u '+%Y-%m-%d %H:%M UTC'): $(cpu_model),
-$(physical_cores) physical cores ($(nproc) usable), GPU: $(gpu_model); LAMMPS $(lammps_version);
+$(physical_cores) physical cores ($usable usable), GPU: $(gpu_model); LAMMPS $(lammps_version);
 HARDSPHERE_GPU $commit. Runs are one MPI rank, one OpenMP thread unless a table says
 otherwise; times are LAMMPS's wall-clock timers on a machine that may be shared.
 
@@ -68,4 +70,10 @@ lmp_run() {
 loop_time() { sed -n 's/^Loop time of \([0-9.e+-]*\) on.*/\1/p' "$1" | tail -n1; }
 
 # python_plot <script.py> [args...]: runs a plotting script with matplotlib's file backend.
-python_plot() { MPLBACKEND=Agg python3 "$@"; }
+# Debian's interpreter where there is one: python3-matplotlib is installed for it, and a python3
+# earlier in PATH (pyenv's, a virtual environment) may not see it.
+python_plot() {
+  local py=python3
+  [ -x /usr/bin/python3 ] && py=/usr/bin/python3
+  MPLBACKEND=Agg "$py" "$@"
+}
