@@ -24,6 +24,7 @@ rm -rf "$work"
 mkdir -p "$work"
 python3 "$here/granular.py" plan "$mode" "$work" "$HSGPU_ROOT" "${HSGPU_REPORT_GRANULAR_SCENES:-}" \
   > "$work/runs.tsv"
+cat /proc/loadavg > "$work/load.txt" 2>/dev/null || true
 total=$(wc -l < "$work/runs.tsv")
 say "granular: $total LAMMPS runs ($mode mode), logs in $work"
 i=0
@@ -40,6 +41,7 @@ while IFS=$'\t' read -r id input args; do
   echo "   [$i/$total] $id: $(loop_time "$work/$id.log") s loop, $((SECONDS - start)) s in all"
 done < "$work/runs.tsv"
 
+cat /proc/loadavg >> "$work/load.txt" 2>/dev/null || true
 python_plot "$here/granular.py" analyse "$work" "$HSGPU_REPORT_DIR"
 page=$HSGPU_REPORT_DIR/granular.md
 {
