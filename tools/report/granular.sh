@@ -7,8 +7,10 @@
 #   bash tools/report/granular.sh <quick|full>     (run by tools/report.sh, which sets HSGPU_REPORT_*)
 # Writes $HSGPU_REPORT_DIR/granular.md, granular_*.png and granular_*.csv; the LAMMPS logs and
 # generated inputs go to $HSGPU_REPORT_BUILD/report/granular/.
-# quick: the pair, the bounce and the column (3 settings per method), about 1.5-2 minutes on
-# 2 cores; full: all five scenes and all settings, about 20-40 minutes.
+# quick: the pair, the bounce and the column (a few settings per method): 20 s on the 2-core
+# development machine; full: all five scenes and all settings, the column with three more
+# velocity seeds: about 35 minutes there, shared with other jobs (the settled column's fix
+# hardsphere runs, about 6 events per sphere per step, take most of it).
 # HSGPU_REPORT_GRANULAR_SCENES=pair,bounce,column,settled,fluid picks scenes (for development).
 # A LAMMPS error, a missing result or a value that is not finite makes it exit non-zero before
 # the page is written.
