@@ -51,6 +51,18 @@ namespace Collide {
   /// leaves a falling column's kinetic energy within 0.06 %).
   constexpr double VMIN_AUTO_ATC = 30.0;
 
+  /// The speed thresholds above (slow collisions, vmin auto) take tc at most
+  /// SPEED_TC_CAP sqrt(d / |a|), d the contact distance: they act as with dt = 0.01 sqrt(d / g)
+  /// at larger timesteps, so that their bias does not grow with dt (a falling column at
+  /// dt = 0.1 with g = 1, d = 0.9 would otherwise make collisions below 1.5 elastic).
+  constexpr double SPEED_TC_CAP = 0.005;
+
+  /// The TC time the speed thresholds use: tc, capped at SPEED_TC_CAP sqrt(d / amax).
+  HSGPU_HD double speed_tc(double tc, double amax, double d)
+  {
+    return amax > 0.0 ? fmin(tc, SPEED_TC_CAP * sqrt(d / amax)) : tc;
+  }
+
   HSGPU_HD double norm3(const double *a)
   {
     return sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
@@ -59,18 +71,20 @@ namespace Collide {
   /// The TC time a collision with normal speed |un| gets when the TC model applies only to
   /// slow collisions (tcslow): tc if the collision is slow (above), else 0.  amax: the larger
   /// of the partners' |a|; vsum: the sum of their drift speeds.
-  HSGPU_HD double slow_tc(double tc, double un, double amax, double vsum)
+  HSGPU_HD double slow_tc(double tc, double un, double amax, double vsum, double d)
   {
-    return (fabs(un) < SLOW_ACCEL * amax * tc || fabs(un) < SLOW_FRACTION * vsum) ? tc : 0.0;
+    return (fabs(un) < SLOW_ACCEL * amax * speed_tc(tc, amax, d) || fabs(un) < SLOW_FRACTION * vsum)
+               ? tc
+               : 0.0;
   }
 
   /// The elastic threshold on the normal speed of a collision: the larger of p.vmin and
   /// p.vmin_atc |a| tc (vmin auto), amax the larger of the partners' |a|.  What the field
   /// builds up in a few steps: a settled pile keeps that much agitation, which bounds its cost,
   /// while a gas or a falling column, whose collisions are far faster, is not changed.
-  HSGPU_HD double elastic_threshold(const Params &p, double amax)
+  HSGPU_HD double elastic_threshold(const Params &p, double amax, double d)
   {
-    return fmax(p.vmin, p.vmin_atc * amax * p.tc);
+    return fmax(p.vmin, p.vmin_atc * amax * speed_tc(p.tc, amax, d));
   }
 
   /// Pair collision of bodies i and j (edge e) at time t.  wi, wj: the bodies' per-atom
@@ -109,10 +123,10 @@ namespace Collide {
 
     const double ut = vn + an * (t - 0.5 * p.dt);    // true normal relative velocity
     const double e0 = p.epair[bi.type * (p.ntypes + 1) + bj.type];
-    const double amax = fmax(norm3(bi.a), norm3(bj.a));
-    const double tcp = p.tcslow ? slow_tc(p.tc, ut, amax, norm3(bi.v) + norm3(bj.v)) : p.tc;
+    const double amax = fmax(norm3(bi.a), norm3(bj.a)), dc = bi.radius + bj.radius;
+    const double tcp = p.tcslow ? slow_tc(p.tc, ut, amax, norm3(bi.v) + norm3(bj.v), dc) : p.tc;
     const double e1 = Impulse::effective_restitution(e0, t - bi.tlast, t - bj.tlast, tcp, ut,
-                                                     elastic_threshold(p, amax));
+                                                     elastic_threshold(p, amax, dc));
     const double meff = Impulse::reduced_mass(bi.mass, bj.mass);
     double J = Impulse::pair_impulse(ut, meff, e1);
     const double Jstop = -meff * vn;    // stops the approach of the drift lines
@@ -167,10 +181,10 @@ namespace Collide {
     b.nevents++;
     tally.events++;
 
-    const double ab = norm3(b.a);
-    const double tcw = p.tcslow ? slow_tc(p.tc, un, ab, norm3(b.v)) : p.tc;
+    const double ab = norm3(b.a), dc = 2.0 * b.radius;    // the contact distance of a pair
+    const double tcw = p.tcslow ? slow_tc(p.tc, un, ab, norm3(b.v), dc) : p.tc;
     const double e1 = Impulse::effective_restitution(p.walls.e[f], t - b.tlast, t - b.tlast, tcw,
-                                                     un, elastic_threshold(p, ab));
+                                                     un, elastic_threshold(p, ab, dc));
     double un_out = -e1 * un;
     const double an = s * b.a[d];
     if (an < 0.0 && (un_out == 0.0 || 2.0 * un_out < -an * p.tc)) {
