@@ -21,22 +21,9 @@ import math
 import re
 import sys
 
+from report_checks import die, finite
+
 PRECS = ["single", "mixed", "double"]
-
-
-def die(msg):
-    sys.stderr.write("gravity_plot.py: " + msg + "\n")
-    sys.exit(1)
-
-
-def finite(name, text):
-    try:
-        v = float(text)
-    except ValueError:
-        die(f"{name} = '{text}' is not a number")
-    if not math.isfinite(v):
-        die(f"{name} = {text} is not finite")
-    return v
 
 
 def timing(log, gpu, prec):

@@ -14,6 +14,8 @@ import math
 import re
 import sys
 
+from report_checks import die, finite
+
 CONFIGS = ["dilute", "lattice2d", "lattice3d"]
 BACKENDS = [("cpu-serial", "CPU order serial"), ("cpu-default", "CPU default order"),
             ("gpu", "GPU (gpu yes)")]
@@ -21,21 +23,6 @@ COLORS = {"cpu-serial": "tab:blue", "cpu-default": "tab:orange", "gpu": "tab:gre
 CONFIG_TITLES = {"dilute": "dilute (vol. fraction 0.001)",
                  "lattice2d": "lattice2d (one layer, spacing 1.1)",
                  "lattice3d": "lattice3d (slab, spacing 2)"}
-
-
-def die(msg):
-    sys.stderr.write("seed_plot.py: " + msg + "\n")
-    sys.exit(1)
-
-
-def finite(name, text):
-    try:
-        v = float(text)
-    except ValueError:
-        die(f"{name} = '{text}' is not a number")
-    if not math.isfinite(v):
-        die(f"{name} = {text} is not finite")
-    return v
 
 
 def row(log, config, backend, gpu):
