@@ -314,3 +314,63 @@ TEST(CollisionStep, UnequalAccelerationsUseTheTrueRelativeVelocity)
     EXPECT_EQ(pair_event_time(bi, bj, e, dt), never());
   }
 }
+
+// vmin auto and the slow-collision criterion: speed thresholds of |a| tc', with
+// tc' = min(tc, SPEED_TC_CAP sqrt(d / |a|)), so that they follow the field at small timesteps and
+// stop growing at large ones.
+TEST(CollisionStep, SpeedThresholdsFollowTheFieldAndStopGrowingWithTheTimestep)
+{
+  Params p{};
+  p.vmin = 0.0;
+  p.vmin_atc = VMIN_AUTO_ATC;
+  // Small timestep (tc = 0.001): the cap 0.005 sqrt(1 / 1) does not bind.
+  p.tc = 0.001;
+  EXPECT_DOUBLE_EQ(elastic_threshold(p, 1.0, 1.0), VMIN_AUTO_ATC * 1.0 * 0.001);
+  // Large timestep (tc = 0.05): the cap binds, 30 x 1 x 0.005 = 0.15, whatever tc is.
+  p.tc = 0.05;
+  const double cap = VMIN_AUTO_ATC * 1.0 * (SPEED_TC_CAP * std::sqrt(1.0 / 1.0));
+  EXPECT_DOUBLE_EQ(elastic_threshold(p, 1.0, 1.0), cap);
+  p.tc = 0.5;
+  EXPECT_DOUBLE_EQ(elastic_threshold(p, 1.0, 1.0), cap);
+  // The cap scales as sqrt(|a| d): four times the contact distance, twice the threshold.
+  EXPECT_DOUBLE_EQ(elastic_threshold(p, 1.0, 4.0), 2.0 * cap);
+  // No field, no threshold; a user's vmin is a floor.
+  EXPECT_EQ(elastic_threshold(p, 0.0, 1.0), 0.0);
+  p.vmin = 0.2;
+  EXPECT_EQ(elastic_threshold(p, 1.0, 1.0), 0.2);
+  // vmin given as a number (vmin_atc 0): only that.
+  p.vmin_atc = 0.0;
+  EXPECT_EQ(elastic_threshold(p, 1.0, 1.0), 0.2);
+  // The slow criterion: 16 |a| tc' (0.08 here) or 0.1 of the speeds' sum.
+  EXPECT_EQ(slow_tc(0.05, 0.07, 1.0, 0.0, 1.0), 0.05);
+  EXPECT_EQ(slow_tc(0.05, 0.09, 1.0, 0.0, 1.0), 0.0);
+  EXPECT_EQ(slow_tc(0.05, 0.09, 1.0, 1.0, 1.0), 0.05);    // below 0.1 x (|v_i| + |v_j|)
+  EXPECT_EQ(slow_tc(0.001, 0.017, 1.0, 0.0, 1.0), 0.0);    // 16 x 0.001 = 0.016
+}
+
+// A pair under a uniform field meeting at a normal speed below vmin auto bounces elastically;
+// above it, with the pair's restitution.
+TEST(CollisionStep, VminAutoMakesSlowCollisionsUnderAFieldElastic)
+{
+  for (double speed : {0.05, 0.5}) {
+    Stepper s(0.1, 0.5);
+    s.p.tc = 0.05;
+    s.p.vmin_atc = VMIN_AUTO_ATC;    // threshold 0.15 (g = 1, d = 1, capped)
+    const double a[3] = {0, 0, -1.0};
+    // In contact at t = 0.05, inside the step.
+    const double xi[3] = {0, 0, 5}, vi[3] = {0.5 * speed, 0, 0},
+                 xj[3] = {1.0 + 0.05 * speed, 0, 5}, vj[3] = {-0.5 * speed, 0, 0};
+    Body bi = make_body(1, xi, vi, a, 0.5, 1.0), bj = make_body(2, xj, vj, a, 0.5, 1.0);
+    bi.tlast = bj.tlast = -1.0;    // no recent collision: the TC model does not apply
+    Edge e{0, 1, {0, 0, 0}};
+    const double t = pair_event_time(bi, bj, e, s.p.dt);
+    ASSERT_LT(t, never());
+    Tally tally;
+    process_pair(bi, bj, e, t, s.p, tally);
+    const double out = bj.v[0] - bi.v[0];    // separating speed
+    if (speed < 0.15)
+      EXPECT_NEAR(out, speed, 1e-15) << "elastic below the threshold";
+    else
+      EXPECT_NEAR(out, 0.5 * speed, 1e-15) << "restitution 0.5 above it";
+  }
+}
