@@ -39,10 +39,10 @@
 namespace HSGPU {
 namespace Collide {
 
-  /// tcslow: a collision is slow when its normal speed is below SLOW_ACCEL |a| tc (|a| the
-  /// larger acceleration of the partners: what the field builds up in 16 tc) or below
-  /// SLOW_FRACTION of the sum of the partners' speeds (the end of a collapse sequence, which
-  /// needs no field).
+  /// tcslow: a collision is slow when its normal speed is below SLOW_ACCEL |a| tc' (|a| the
+  /// larger acceleration of the partners, tc' = speed_tc(): what the field builds up in
+  /// 16 tc') or below SLOW_FRACTION of the sum of the partners' speeds (the end of a collapse
+  /// sequence, which needs no field).
   constexpr double SLOW_ACCEL = 16.0;
   constexpr double SLOW_FRACTION = 0.1;
 
@@ -69,17 +69,18 @@ namespace Collide {
   }
 
   /// The TC time a collision with normal speed |un| gets when the TC model applies only to
-  /// slow collisions (tcslow): tc if the collision is slow (above), else 0.  amax: the larger
-  /// of the partners' |a|; vsum: the sum of their drift speeds.
+  /// slow collisions (tcslow): tc if the collision is slow (above, with tc' = speed_tc()),
+  /// else 0.  amax: the larger of the partners' |a|; vsum: the sum of their drift speeds; d:
+  /// their contact distance.
   HSGPU_HD double slow_tc(double tc, double un, double amax, double vsum, double d)
   {
-    return (fabs(un) < SLOW_ACCEL * amax * speed_tc(tc, amax, d) || fabs(un) < SLOW_FRACTION * vsum)
-               ? tc
-               : 0.0;
+    const double slow = SLOW_ACCEL * amax * speed_tc(tc, amax, d);
+    return (fabs(un) < slow || fabs(un) < SLOW_FRACTION * vsum) ? tc : 0.0;
   }
 
   /// The elastic threshold on the normal speed of a collision: the larger of p.vmin and
-  /// p.vmin_atc |a| tc (vmin auto), amax the larger of the partners' |a|.  What the field
+  /// p.vmin_atc |a| tc' (vmin auto; tc' = speed_tc()), amax the larger of the partners' |a|,
+  /// d their contact distance.  What the field
   /// builds up in a few steps: a settled pile keeps that much agitation, which bounds its cost,
   /// while a gas or a falling column, whose collisions are far faster, is not changed.
   HSGPU_HD double elastic_threshold(const Params &p, double amax, double d)
