@@ -17,8 +17,7 @@
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 source "$here/lib.sh"
-mode=${1:?usage: granular.sh <quick|full>}
-case $mode in quick|full) ;; *) echo "granular.sh: mode must be quick or full" >&2; exit 2 ;; esac
+mode=$(report_mode "${1:-}")
 report_env
 
 work=$HSGPU_REPORT_BUILD/report/granular

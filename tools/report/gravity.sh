@@ -17,16 +17,14 @@ set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 # shellcheck source=tools/report/lib.sh
 source "$here/lib.sh"
-mode=${1:-}
-case $mode in quick|full) ;; *) echo "usage: $0 quick|full" >&2; exit 2 ;; esac
+mode=$(report_mode "${1:-}")
 report_env
 out=$HSGPU_REPORT_DIR
 bench=$HSGPU_ROOT/examples/benchmarks/in.gravity_step
 forces_in=$here/in.gravity_forces
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-py=$(report_python)
-helper() { MPLBACKEND=Agg "$py" "$here/gravity_plot.py" "$@"; }
+helper() { python_plot "$here/gravity_plot.py" "$@"; }
 
 if [ "$mode" = quick ]; then
   cpu_ns=(1024 2048 4096)
@@ -150,7 +148,7 @@ virial), and the error of the forces of one force-only step against a reference,
 GPU; see [pair_gravity.md](../pair_gravity.md)). Its loop over a rank's atoms runs on
 LAMMPS's OpenMP threads (\`OMP_NUM_THREADS\` at startup), so it is timed on 1 thread and on
 $maxth (all usable CPUs of this machine), one MPI rank. Its reference is a direct sum
-written in numpy in long double (machine epsilon $("$py" -c 'import numpy as np; print("%.2g" % np.finfo(np.longdouble).eps)'), against 2.2e-16 for double; numpy's
+written in numpy in long double (machine epsilon $("$HSGPU_REPORT_PYTHON" -c 'import numpy as np; print("%.2g" % np.finfo(np.longdouble).eps)'), against 2.2e-16 for double; numpy's
 pairwise summation, a different order from the CPU path's sum in atom-ID order) from the exact
 double positions LAMMPS wrote (\`%.17g\`), over all targets up to N = $ld_all and over
 $ld_sample targets spread over the IDs above. $bitwise $gpu_note

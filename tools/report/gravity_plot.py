@@ -16,12 +16,11 @@
 
 Every number read is checked to be finite; a NaN or a missing value exits non-zero.
 """
-import csv
 import math
 import re
 import sys
 
-from report_checks import die, finite
+from report_checks import die, finite, load_rows
 
 PRECS = ["single", "mixed", "double"]
 
@@ -131,16 +130,8 @@ def same(d1, d2):
 
 
 def load(path):
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    if not rows:
-        die(f"{path}: no rows")
-    for r in rows:
-        for k in ("N", "steps", "threads"):
-            r[k] = int(r[k])
-        for k in ("ms_per_step", "rms_rel", "max_rel", "maxabs_rel"):
-            r[k] = finite(k, r[k]) if r[k] != "" else None
-    return rows
+    return load_rows(path, ("N", "steps", "threads"), ("backend", "precision", "reference"),
+                     blank_ok=True)
 
 
 def label(r):

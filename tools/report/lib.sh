@@ -19,6 +19,16 @@ report_env() {
   export OMP_NUM_THREADS=1
   mpi_env
   mkdir -p "$HSGPU_REPORT_DIR"
+  HSGPU_REPORT_PYTHON=${HSGPU_REPORT_PYTHON:-$(report_python)}
+  export HSGPU_REPORT_PYTHON
+}
+
+# report_mode <arg>: prints the section's mode, quick or full; fails with a usage line otherwise.
+report_mode() {
+  case ${1:-} in
+    quick|full) echo "$1" ;;
+    *) echo "usage: $0 quick|full" >&2; return 2 ;;
+  esac
 }
 
 # has_gpu: true when a CUDA device answers and the plugin was built with CUDA.
@@ -83,5 +93,6 @@ report_python() {
   fi
 }
 
-# python_plot <script.py> [args...]: runs a plotting script with matplotlib's file backend.
-python_plot() { MPLBACKEND=Agg "$(report_python)" "$@"; }
+# python_plot <script.py> [args...]: runs a plotting script with matplotlib's file backend, in
+# the Python report_env chose (report_python once, not at every call).
+python_plot() { MPLBACKEND=Agg "${HSGPU_REPORT_PYTHON:-$(report_python)}" "$@"; }

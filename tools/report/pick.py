@@ -59,12 +59,15 @@ say("at any timestep.  One CPU core unless stated.")
 say("")
 
 
-def best_within(rows, method_hs, limit):
+def split(rows):
+    """The fix hardsphere runs and the others (GRANULAR)."""
+    return [r for r in rows if r["method"] == HS], [r for r in rows if r["method"] != HS]
+
+
+def best_within(rows, limit):
     """Cheapest run of each side (fix hardsphere or not) with |error| <= limit."""
-    ok = [r for r in rows if num(r, "error") is not None and abs(r["error"]) <= limit
-          and num(r, "wall") is not None]
-    hs = [r for r in ok if r["method"] == method_hs]
-    gr = [r for r in ok if r["method"] != method_hs]
+    hs, gr = split([r for r in rows if num(r, "error") is not None and abs(r["error"]) <= limit
+                    and num(r, "wall") is not None])
     return (min(hs, key=lambda r: r["wall"]) if hs else None,
             min(gr, key=lambda r: r["wall"]) if gr else None)
 
@@ -76,8 +79,7 @@ say("Use `fix hardsphere` with its defaults and the largest timestep the other f
 say("collision is resolved at its exact time inside the step, so a larger timestep costs nothing in")
 say("accuracy.")
 if pair:
-    hs = [r for r in pair if r["method"] == HS]
-    gr = [r for r in pair if r["method"] != HS]
+    hs, gr = split(pair)
     say(f"Head-on pair: restitution error {g(max(abs(r['error']) for r in hs))} at dt = "
         f"{', '.join(g(d) for d in sorted({r['dt'] for r in hs}))}; the soft contacts reach "
         f"{g(min(abs(r['error']) for r in gr))} at best and {g(max(abs(r['error']) for r in gr))} "
@@ -100,7 +102,7 @@ say("")
 say("## Free flight and collisions under a uniform field (the falling column)")
 say("")
 if column:
-    hs, gr = best_within(column, HS, 0.005)
+    hs, gr = best_within(column, 0.005)
     if hs:
         say(f"For a kinetic-energy error of 0.5 % or less at t = 1, the cheapest `fix hardsphere` run "
             f"was `{hs.get('setting', '')}` at dt = {g(hs['dt'])}: {g(hs['wall'])} s, error "
@@ -135,8 +137,7 @@ say("(the pile creeps slowly).  For a static pile set `vmin 0` and accept the co
 say("widths that are a whole number of diameters for monodisperse spheres (a closed ring of")
 say("touching spheres defeats the guards, [hard_cases.md](../hard_cases.md#found)).")
 if settled:
-    hs = [r for r in settled if r["method"] == HS]
-    gr = [r for r in settled if r["method"] != HS]
+    hs, gr = split(settled)
     def line(r):
         parts = []
         if num(r, "floor_mom_err") is not None:
@@ -165,8 +166,7 @@ say("")
 say("## Dense elastic fluid")
 say("")
 if fluid:
-    hs = [r for r in fluid if r["method"] == HS]
-    gr = [r for r in fluid if r["method"] != HS]
+    hs, gr = split(fluid)
     if hs:
         h = min(hs, key=lambda r: r["wall"])
         say(f"`fix hardsphere` (elastic, defaults) at dt = {g(h['dt'])}: compressibility factor "

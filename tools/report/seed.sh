@@ -16,15 +16,13 @@ set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 # shellcheck source=tools/report/lib.sh
 source "$here/lib.sh"
-mode=${1:-}
-case $mode in quick|full) ;; *) echo "usage: $0 quick|full" >&2; exit 2 ;; esac
+mode=$(report_mode "${1:-}")
 report_env
 out=$HSGPU_REPORT_DIR
 input=$here/in.seed_config
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-py=$(report_python)
-helper() { MPLBACKEND=Agg "$py" "$here/seed_plot.py" "$@"; }
+helper() { python_plot "$here/seed_plot.py" "$@"; }
 
 if [ "$mode" = quick ]; then
   cpu_ns=(1024 2048 4096)

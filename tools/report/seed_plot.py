@@ -9,12 +9,11 @@
 `row` exits non-zero, naming the problem, when the log lacks a result or holds a value that
 is not finite, so that a failed or wrong run never reaches a table.
 """
-import csv
 import math
 import re
 import sys
 
-from report_checks import die, finite
+from report_checks import die, finite, load_rows
 
 CONFIGS = ["dilute", "lattice2d", "lattice3d"]
 BACKENDS = [("cpu-serial", "CPU order serial"), ("cpu-default", "CPU default order"),
@@ -66,17 +65,7 @@ def row(log, config, backend, gpu):
 
 
 def load(path):
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    if not rows:
-        die(f"{path}: no runs")
-    for r in rows:
-        for k in ("N", "steps"):
-            r[k] = int(r[k])
-        for k in r:
-            if k not in ("config", "backend", "N", "steps"):
-                r[k] = finite(k, r[k])
-    return rows
+    return load_rows(path, ("N", "steps"), ("config", "backend"))
 
 
 def plot(path, png, gpu):
