@@ -325,27 +325,30 @@ TEST(CollisionStep, SpeedThresholdsFollowTheFieldAndStopGrowingWithTheTimestep)
   p.vmin_atc = VMIN_AUTO_ATC;
   // Small timestep (tc = 0.001): the cap 0.005 sqrt(1 / 1) does not bind.
   p.tc = 0.001;
-  EXPECT_DOUBLE_EQ(elastic_threshold(p, 1.0, 1.0), VMIN_AUTO_ATC * 1.0 * 0.001);
+  EXPECT_DOUBLE_EQ(elastic_threshold(p, 1.0, speed_tc(p.tc, 1.0, 1.0)),
+                   VMIN_AUTO_ATC * 1.0 * 0.001);
   // Large timestep (tc = 0.05): the cap binds, 30 x 1 x 0.005 = 0.15, whatever tc is.
   p.tc = 0.05;
   const double cap = VMIN_AUTO_ATC * 1.0 * (SPEED_TC_CAP * std::sqrt(1.0 / 1.0));
-  EXPECT_DOUBLE_EQ(elastic_threshold(p, 1.0, 1.0), cap);
+  EXPECT_DOUBLE_EQ(elastic_threshold(p, 1.0, speed_tc(p.tc, 1.0, 1.0)), cap);
   p.tc = 0.5;
-  EXPECT_DOUBLE_EQ(elastic_threshold(p, 1.0, 1.0), cap);
+  EXPECT_DOUBLE_EQ(elastic_threshold(p, 1.0, speed_tc(p.tc, 1.0, 1.0)), cap);
   // The cap scales as sqrt(|a| d): four times the contact distance, twice the threshold.
-  EXPECT_DOUBLE_EQ(elastic_threshold(p, 1.0, 4.0), 2.0 * cap);
+  EXPECT_DOUBLE_EQ(elastic_threshold(p, 1.0, speed_tc(p.tc, 1.0, 4.0)), 2.0 * cap);
   // No field, no threshold; a user's vmin is a floor.
-  EXPECT_EQ(elastic_threshold(p, 0.0, 1.0), 0.0);
+  EXPECT_EQ(elastic_threshold(p, 0.0, speed_tc(p.tc, 0.0, 1.0)), 0.0);
   p.vmin = 0.2;
-  EXPECT_EQ(elastic_threshold(p, 1.0, 1.0), 0.2);
+  EXPECT_EQ(elastic_threshold(p, 1.0, speed_tc(p.tc, 1.0, 1.0)), 0.2);
   // vmin given as a number (vmin_atc 0): only that.
   p.vmin_atc = 0.0;
-  EXPECT_EQ(elastic_threshold(p, 1.0, 1.0), 0.2);
+  EXPECT_EQ(elastic_threshold(p, 1.0, speed_tc(p.tc, 1.0, 1.0)), 0.2);
   // The slow criterion: 16 |a| tc' (0.08 here) or 0.1 of the speeds' sum.
-  EXPECT_EQ(slow_tc(0.05, 0.07, 1.0, 0.0, 1.0), 0.05);
-  EXPECT_EQ(slow_tc(0.05, 0.09, 1.0, 0.0, 1.0), 0.0);
-  EXPECT_EQ(slow_tc(0.05, 0.09, 1.0, 1.0, 1.0), 0.05);    // below 0.1 x (|v_i| + |v_j|)
-  EXPECT_EQ(slow_tc(0.001, 0.017, 1.0, 0.0, 1.0), 0.0);    // 16 x 0.001 = 0.016
+  EXPECT_EQ(slow_tc(0.05, speed_tc(0.05, 1.0, 1.0), 0.07, 1.0, 0.0), 0.05);
+  EXPECT_EQ(slow_tc(0.05, speed_tc(0.05, 1.0, 1.0), 0.09, 1.0, 0.0), 0.0);
+  // below 0.1 x (|v_i| + |v_j|):
+  EXPECT_EQ(slow_tc(0.05, speed_tc(0.05, 1.0, 1.0), 0.09, 1.0, 1.0), 0.05);
+  // 16 x 0.001 = 0.016:
+  EXPECT_EQ(slow_tc(0.001, speed_tc(0.001, 1.0, 1.0), 0.017, 1.0, 0.0), 0.0);
 }
 
 // A pair under a uniform field meeting at a normal speed below vmin auto bounces elastically;

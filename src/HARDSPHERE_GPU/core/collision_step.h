@@ -69,23 +69,23 @@ namespace Collide {
   }
 
   /// The TC time a collision with normal speed |un| gets when the TC model applies only to
-  /// slow collisions (tcslow): tc if the collision is slow (above, with tc' = speed_tc()),
-  /// else 0.  amax: the larger of the partners' |a|; vsum: the sum of their drift speeds; d:
-  /// their contact distance.
-  HSGPU_HD double slow_tc(double tc, double un, double amax, double vsum, double d)
+  /// slow collisions (tcslow): tc if the collision is slow (above), else 0.  tcs: tc' =
+  /// speed_tc(tc, amax, d); amax: the larger of the partners' |a|; vsum: the sum of their
+  /// drift speeds.
+  HSGPU_HD double slow_tc(double tc, double tcs, double un, double amax, double vsum)
   {
-    const double slow = SLOW_ACCEL * amax * speed_tc(tc, amax, d);
+    const double slow = SLOW_ACCEL * amax * tcs;
     return (fabs(un) < slow || fabs(un) < SLOW_FRACTION * vsum) ? tc : 0.0;
   }
 
   /// The elastic threshold on the normal speed of a collision: the larger of p.vmin and
-  /// p.vmin_atc |a| tc' (vmin auto; tc' = speed_tc()), amax the larger of the partners' |a|,
-  /// d their contact distance.  What the field
+  /// p.vmin_atc |a| tc' (vmin auto), amax the larger of the partners' |a|, tcs = tc' =
+  /// speed_tc(p.tc, amax, d) with d their contact distance.  What the field
   /// builds up in a few steps: a settled pile keeps that much agitation, which bounds its cost,
   /// while a gas or a falling column, whose collisions are far faster, is not changed.
-  HSGPU_HD double elastic_threshold(const Params &p, double amax, double d)
+  HSGPU_HD double elastic_threshold(const Params &p, double amax, double tcs)
   {
-    return fmax(p.vmin, p.vmin_atc * amax * speed_tc(p.tc, amax, d));
+    return fmax(p.vmin, p.vmin_atc * amax * tcs);
   }
 
   /// Pair collision of bodies i and j (edge e) at time t.  wi, wj: the bodies' per-atom
@@ -124,10 +124,11 @@ namespace Collide {
 
     const double ut = vn + an * (t - 0.5 * p.dt);    // true normal relative velocity
     const double e0 = p.epair[bi.type * (p.ntypes + 1) + bj.type];
-    const double amax = fmax(norm3(bi.a), norm3(bj.a)), dc = bi.radius + bj.radius;
-    const double tcp = p.tcslow ? slow_tc(p.tc, ut, amax, norm3(bi.v) + norm3(bj.v), dc) : p.tc;
+    const double amax = fmax(norm3(bi.a), norm3(bj.a));
+    const double tcs = speed_tc(p.tc, amax, bi.radius + bj.radius);
+    const double tcp = p.tcslow ? slow_tc(p.tc, tcs, ut, amax, norm3(bi.v) + norm3(bj.v)) : p.tc;
     const double e1 = Impulse::effective_restitution(e0, t - bi.tlast, t - bj.tlast, tcp, ut,
-                                                     elastic_threshold(p, amax, dc));
+                                                     elastic_threshold(p, amax, tcs));
     const double meff = Impulse::reduced_mass(bi.mass, bj.mass);
     double J = Impulse::pair_impulse(ut, meff, e1);
     const double Jstop = -meff * vn;    // stops the approach of the drift lines
@@ -182,10 +183,11 @@ namespace Collide {
     b.nevents++;
     tally.events++;
 
-    const double ab = norm3(b.a), dc = 2.0 * b.radius;    // the contact distance of a pair
-    const double tcw = p.tcslow ? slow_tc(p.tc, un, ab, norm3(b.v), dc) : p.tc;
+    const double ab = norm3(b.a);
+    const double tcs = speed_tc(p.tc, ab, 2.0 * b.radius);    // d: the contact distance of a pair
+    const double tcw = p.tcslow ? slow_tc(p.tc, tcs, un, ab, norm3(b.v)) : p.tc;
     const double e1 = Impulse::effective_restitution(p.walls.e[f], t - b.tlast, t - b.tlast, tcw,
-                                                     un, elastic_threshold(p, ab, dc));
+                                                     un, elastic_threshold(p, ab, tcs));
     double un_out = -e1 * un;
     const double an = s * b.a[d];
     if (an < 0.0 && (un_out == 0.0 || 2.0 * un_out < -an * p.tc)) {
