@@ -13,6 +13,7 @@
 #include "force.h"
 #include "memory.h"
 #include "modify.h"
+#include "neighbor.h"
 #include "update.h"
 #include "utils.h"
 
@@ -204,7 +205,40 @@ void PairGravity::init_style()
                    "Pair style gravity does not support compute pair/local (compute {}): it "
                    "sums over all pairs without a neighbor list and has no single() function",
                    modify->compute[c]->id);
+  choose_sort_bins();
   setup_gpu();
+}
+
+/* LAMMPS sorts the atoms in bins of half the neighbor cutoff unless a bin size was given
+   (atom_modify sort).  This style's range is negligible, so that is half the skin, and in a
+   large box the bins run into the billions: LAMMPS stops with "Too many atom sorting bins" or
+   allocates gigabytes for them (a slab of 1e6 spheres 512 x 512 x 36 wide: 2.8e9 bins).  As
+   LAMMPS's GPU package picks its own bin size, where this style is the pair style, sorting is
+   on, no size was given and the default would make more than 8 bins per local atom (and more
+   than 1e6) on some rank, the bin size becomes the edge of a cell that holds one atom on
+   average on the rank whose atoms are sparsest (one value for all ranks). */
+void PairGravity::choose_sort_bins()
+{
+  if (force->pair != this || atom->sortfreq <= 0 || atom->userbinsize > 0.0) return;
+  const int dim = domain->dimension;
+  const double half = 0.5 * (neighbor->skin + init_one(1, 1));
+  double bins = 1.0, vol = 1.0;
+  for (int d = 0; d < dim; ++d) {
+    const double len = domain->subhi[d] - domain->sublo[d];
+    bins *= std::max(1.0, std::floor(len / half));
+    vol *= len;
+  }
+  const double n = std::max(1, atom->nlocal);
+  double mine[2] = {bins > std::max(8.0 * n, 1.0e6) ? 1.0 : 0.0, std::pow(vol / n, 1.0 / dim)};
+  double all[2];
+  MPI_Allreduce(mine, all, 2, MPI_DOUBLE, MPI_MAX, world);
+  if (all[0] == 0.0 || !(all[1] > half)) return;
+  atom->userbinsize = all[1];
+  if (comm->me == 0)
+    utils::logmesg(lmp,
+                   "Pair gravity: atom sorting bin size set to {:.6g} (half the neighbor cutoff, "
+                   "{:.6g}, would make more than 8 bins per atom; atom_modify sort sets it)\n",
+                   all[1], half);
 }
 
 /* One CUDA device per rank: the one the user named, or the node-local rank modulo the

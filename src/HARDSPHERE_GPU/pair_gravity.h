@@ -71,6 +71,7 @@ class PairGravity : public Pair {
   void compute_cpu(int nlocal);
   void compute_gpu(int nlocal);
   void setup_gpu();
+  void choose_sort_bins();
   void tally(int nlocal);
   void check_forces(int nlocal);
   void report_nonfinite(int nlocal);

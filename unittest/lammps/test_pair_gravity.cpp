@@ -252,6 +252,24 @@ TEST(PairGravity, TinyCutoffLeavesOutEveryPair)
   }
 }
 
+// The style's range is negligible, so LAMMPS's default sort bins (half the neighbor cutoff)
+// would number about 1e10 in this sparse box and LAMMPS would stop with "Too many atom sorting
+// bins": the style picks a bin size itself unless the user gave one.
+TEST(PairGravity, LargeSparseBoxSortsWithItsOwnBinSize)
+{
+  for (const char *sort : {"", "atom_modify sort 1000 50.0"}) {
+    Lammps lmp;
+    lmp.commands({"units lj", "atom_style atomic", "atom_modify map array", sort,
+                  "region box block 0 2000 0 2000 0 2000", "create_box 1 box",
+                  "create_atoms 1 single 10 10 10", "create_atoms 1 single 1990 1990 1990",
+                  "mass 1 1.0", "pair_style gravity 1 0.1", "pair_coeff * *",
+                  "thermo_modify norm no"});
+    EXPECT_EQ(lmp.command("run 0"), "") << sort;
+    const double r = std::sqrt(3.0 * 20.0 * 20.0 + 0.1 * 0.1);    // nearest image
+    EXPECT_NEAR(lmp.thermo("pe"), -1.0 / r, 1e-14) << sort;
+  }
+}
+
 // Results that cannot be right stop the run with an error naming the atoms or the setting,
 // not with -inf and NaN or a later "Lost atoms".
 TEST(PairGravityErrors, ImpossibleForcesAreNamed)
