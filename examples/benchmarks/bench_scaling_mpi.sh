@@ -1,0 +1,125 @@
+#!/usr/bin/env bash
+# Weak and strong scaling of fix hardsphere on the CPU over MPI ranks (one rank per core,
+# mpirun --bind-to core).  Prints two Markdown tables:
+#
+#   weak    about `per` atoms per rank: lattice3d (examples/hardsphere, N = per x P), the fluid
+#           (in.fluid, nx the nearest cube) and the pour (examples/hardsphere/in.pour, a block
+#           n x n cells wide and 16 layers high, n the nearest integer to sqrt(per P / 16);
+#           the first `pour` steps: the block falls and lands on the floor);
+#   strong  N = `big` (lattice3d; the fluid with the nearest cube) on every rank count.
+#
+#   examples/benchmarks/bench_scaling_mpi.sh lmp plugin ["ranks"] [per] [big] [reps]
+#
+#   ranks  default "1 2 4 8 16";  per  default 32768;  big  default 1048576;  reps  default 1
+#   (the median of each column is printed; the rank counts take turns within a repetition).
+#   HSGPU_SCALING="weak strong" picks the tables; HSGPU_POUR_STEPS the pour's steps (600).
+#
+# Columns: the fix's own time per step after the run's first (its run summary), LAMMPS's Loop
+# time per step, the efficiency of the fix's time (weak: t(P0) N(P) / (t(P) N(P0)) x P0 / P; strong:
+# t(P0) P0 / (t(P) P), P0 the first rank count), the atoms per step in groups that span ranks,
+# gathers per step, and the fix's communication of the last step: collective operations
+# (f_ID[24]), ghost updates (f_ID[25]) and bytes brought to all ranks (f_ID[26]).
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+root=$(cd "$here/../.." && pwd)
+lmp=$(readlink -f "${1:?usage: bench_scaling_mpi.sh lmp plugin [ranks] [per] [big] [reps]}")
+plugin=$(readlink -f "${2:?usage: bench_scaling_mpi.sh lmp plugin [ranks] [per] [big] [reps]}")
+read -r -a ranks <<< "${3:-1 2 4 8 16}"
+per=${4:-32768}
+big=${5:-1048576}
+reps=${6:-1}
+tables=${HSGPU_SCALING:-weak strong}
+pour_steps=${HSGPU_POUR_STEPS:-600}
+scenes=${HSGPU_SCENES:-$here}
+export OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+cp "$root"/examples/hardsphere/in.lattice3d "$root"/examples/hardsphere/in.pour "$scenes"/in.fluid "$work"/
+for f in "$work"/in.*; do
+  sed -i '/^write_dump/d' "$f"
+  printf '%s\n' 'print "comm: $(f_hs[24]) $(f_hs[25]) $(f_hs[26])"' >> "$f"
+done
+echo "host: $(nproc --all) logical CPUs, $(lscpu | sed -n 's/^Core(s) per socket: *//p') cores per socket x $(lscpu | sed -n 's/^Socket(s): *//p') sockets, $(lscpu | sed -n 's/^Thread(s) per core: *//p') thread(s) per core, $(lscpu | sed -n 's/^Model name: *//p'); $(date -u '+%F %T UTC')"
+echo
+
+median() { sort -g | awk '{v[NR] = $1} END {print (NR % 2) ? v[(NR + 1) / 2] : 0.5 * (v[NR / 2] + v[NR / 2 + 1])}'; }
+
+# One run: prints "fixstep loop spanning gathers collectives ghostupdates bytes".
+one() {
+  local np=$1 input=$2 log=$3; shift 3
+  (cd "$work" && mpirun -np "$np" --bind-to core "$lmp" -in "$input" -var plugin "$plugin" "$@" \
+    -log "$log" -echo none -screen none > "$log.out" 2>&1) ||
+    { echo "run failed: $np ranks, $input $*" >&2; tail -n 8 "$work/$log" "$work/$log.out" >&2; exit 1; }
+  awk '
+    /^Loop time of/ {loop = $4; steps = $9}
+    /^Fix hardsphere \(/ {
+      s = $0; sub(/.*\(/, "", s); sub(/ ms after the first.*/, "", s); fix = s
+      s = $0; sub(/ atoms per step in groups spanning ranks.*/, "", s); n = split(s, w, " "); span = w[n]
+      s = $0; sub(/ gathers per step.*/, "", s); n = split(s, w, " "); gath = w[n]
+    }
+    /^comm: / {coll = $2; ghost = $3; bytes = $4}
+    END {printf "%g %g %g %g %g %g %g\n", fix, 1e3 * loop / steps, span, gath, coll, ghost, bytes}' \
+    "$work/$log"
+}
+
+hdr="| configuration | N | ranks | fix step ms | Loop ms/step | efficiency (fix) | spanning atoms/step | gathers/step | collectives | ghost updates | bytes |"
+rul="|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+
+size_args() {    # case np -> prints "N args..."
+  local c=$1 np=$2 total=$((per * $2))
+  case $c in
+    lattice3d) echo "$total -var N $total -var steps 50" ;;
+    fluid) local nx
+      nx=$(awk -v t="$total" 'BEGIN {printf "%d", t ^ (1 / 3) + 0.5}')
+      echo "$((nx * nx * nx)) -var nx $nx -var steps 50" ;;
+    pour) local n
+      n=$(awk -v t="$total" 'BEGIN {printf "%d", sqrt(t / 16) + 0.5}')
+      echo "$total -var N $total -var n $n -var steps $pour_steps" ;;
+    big_lattice3d) echo "$big -var N $big -var steps 20" ;;
+    big_fluid) local nx
+      nx=$(awk -v t="$big" 'BEGIN {printf "%d", t ^ (1 / 3) + 0.5}')
+      echo "$((nx * nx * nx)) -var nx $nx -var steps 20" ;;
+  esac
+}
+
+table() {    # weak|strong cases...
+  local kind=$1; shift
+  local c np rep
+  for ((rep = 0; rep < reps; ++rep)); do
+    for c in "$@"; do
+      for np in "${ranks[@]}"; do
+        read -r -a a <<< "$(size_args "$c" "$np")"
+        one "$np" "in.${c#big_}" "log.$c.$np" "${a[@]:1}" >> "$work/rows.$c.$np"
+      done
+    done
+  done
+  echo "$hdr"
+  echo "$rul"
+  for c in "$@"; do
+    local base="" bn="" bp=""
+    for np in "${ranks[@]}"; do
+      read -r -a a <<< "$(size_args "$c" "$np")"
+      local n=${a[0]} m=()
+      for k in 1 2 3 4 5 6 7; do m+=("$(awk -v k=$k '{print $k}' "$work/rows.$c.$np" | median)"); done
+      [ -n "$base" ] || { base=${m[0]}; bn=$n; bp=$np; }
+      awk -v lab="${c#big_}" -v n="$n" -v np="$np" -v kind="$kind" -v b="$base" -v bn="$bn" -v bp="$bp" \
+        -v fix="${m[0]}" -v loop="${m[1]}" -v span="${m[2]}" -v gath="${m[3]}" -v coll="${m[4]}" \
+        -v ghost="${m[5]}" -v bytes="${m[6]}" 'BEGIN {
+          eff = (kind == "weak") ? (b / bn) / (fix / n) * bp / np : b * bp / (fix * np)
+          printf "| %s | %d | %d | %.2f | %.2f | %.0f%% | %.0f | %.2f | %.0f | %.0f | %.3g |\n",
+            lab, n, np, fix, loop, 100 * eff, span, gath, coll, ghost, bytes }'
+    done
+  done
+  echo
+}
+
+if [[ " $tables " == *" weak "* ]]; then
+  echo "Weak scaling, about $per atoms per rank (the pour: its first $pour_steps steps):"
+  echo
+  table weak lattice3d fluid pour
+fi
+if [[ " $tables " == *" strong "* ]]; then
+  echo "Strong scaling, N = $big (the fluid: the nearest cube):"
+  echo
+  table strong big_lattice3d big_fluid
+fi
