@@ -9,8 +9,8 @@
    Per interaction, forces only, single precision: 3 FADD (d), 3 FFMA (r^2 + eps^2), 1 MUFU
    (rsqrt), 3 FMUL (m_j / r^3), 3 FFMA (accumulate) = 13 issued instructions; the shared-memory
    load of a source (one 16 B broadcast) is shared by the ILP targets of a thread.  Minimum
-   image adds 4 full-rate instructions per dimension (FMUL, two FADD that round, FFMA; see
-   rint_p: FRND would issue at an eighth of the rate), energy 1 and virial 9.  Mixed precision costs the same per
+   image adds 4 per dimension in fp32 (FMUL, two FADD that round, FFMA; see rint_p, which
+   avoids FRND) and 3 in fp64, energy 1 and virial 9.  Mixed precision costs the same per
    pair; converting a tile's sources to the block origin (3 DADD + 3 F2F each) and adding the
    tile's fp32 sums into fp64 are per tile.  Double precision: 3 DADD, 3 DFMA, the
    approximate reciprocal square root (one MUFU) and 7 fp64 instructions correcting it into
