@@ -349,12 +349,12 @@ namespace GPU {
           self_test, (typename T::Part *) scratch);
     }
 
-    // The force-only kernel without cutoff, in an open or a periodic box (the hot path of the
-    // benchmark and of most runs: the seed paper's system is periodic in x and y), is compiled
-    // in every shape of HOT_SHAPES (gravity_types.h).
+    // The force-only open-box kernel without cutoff (the hot path of the benchmark and of most
+    // runs) is compiled in every shape of HOT_SHAPES (gravity_types.h).
     bool is_hot(const GravityArgs &a)
     {
-      return !a.energy_virial && !(a.cutsq > 0.0);
+      return !(a.periodic[0] || a.periodic[1] || a.periodic[2]) && !a.energy_virial &&
+             !(a.cutsq > 0.0);
     }
 
     template <int PREC, bool PER, bool EV, bool CUT, int I = 0>
@@ -382,7 +382,7 @@ namespace GPU {
                                long ntgt, const GravityArgs &a, bool self_test, void *scratch,
                                cudaStream_t st)
     {
-      if constexpr (!EV && !CUT) {
+      if constexpr (!PER && !EV && !CUT) {
         return dispatch_hot<PREC, PER, EV, CUT>(s, src, nsrc, tidx, ntgt, a, self_test, scratch,
                                                 st);
       } else {

@@ -40,9 +40,9 @@ namespace GPU {
     int splits;    // the sources are split into this many ranges, one block row each
   };
 
-  /// The (block, ilp) shapes compiled for the force-only kernel without cutoff (open or
-  /// periodic box), the hot path; every other flag combination runs 256 x 2 (Single, Mixed)
-  /// or 256 x 1 (Double).  The benchmark sweep and the tests walk this list.
+  /// The (block, ilp) shapes compiled for the force-only kernel in an open box without
+  /// cutoff, the hot path; every other flag combination runs 256 x 2 (Single, Mixed) or
+  /// 256 x 1 (Double).  The benchmark sweep and the tests walk this list.
   inline constexpr int HOT_SHAPES[][2] = {{128, 1}, {128, 2}, {128, 4},
                                           {256, 1}, {256, 2}, {256, 4}};
   inline constexpr int NUM_HOT_SHAPES = sizeof(HOT_SHAPES) / sizeof(HOT_SHAPES[0]);
