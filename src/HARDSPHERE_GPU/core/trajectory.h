@@ -44,6 +44,9 @@ namespace Collide {
     double exc2;     // largest squared distance of the drift line from X0 so far
     double w0[3];    // drift-line position at the start of the current time window
     double wexc2;    // largest squared distance of the drift line from w0 in the window
+    double omega[3];    // angular velocity (friction only; zero and untouched for smooth
+                        // spheres): the integrator's half-step value, taken as the true one
+                        // throughout the step (torques of other styles are not followed in it)
     long id;         // atom ID (> 0): fixes the order of simultaneous events
     long last;       // ID of the partner of the body's latest event if that was a pair
                      // collision that left its drift line unchanged since, else 0
@@ -66,6 +69,8 @@ namespace Collide {
     int on[NFACES];
     double pos[NFACES];
     double e[NFACES];
+    double mu[NFACES];      // friction (Params::friction only)
+    double beta[NFACES];    // tangential restitution of sticking contacts
   };
 
   /// The step's parameters.
@@ -79,6 +84,12 @@ namespace Collide {
     int ntypes;
     const double *epair;    // restitution of type pair (ti, tj) at ti * (ntypes + 1) + tj
     long maxevents;         // cap on events per step (all calls sharing one Tally)
+    // Rough spheres (friction.h).  friction = 0 (as Params{} sets it): smooth spheres, the
+    // tangential branches are never entered (nor inertia, fpair, walls.mu, walls.beta read).
+    // No default member initializers: Params stays trivial, copied bytewise to the device.
+    int friction;
+    double inertia;            // moment of inertia / (m r^2)
+    const double *fpair;       // mu, beta0 of type pair (ti, tj) at 2 (ti * (ntypes + 1) + tj), +1
   };
 
   /// What the events of a step did.
