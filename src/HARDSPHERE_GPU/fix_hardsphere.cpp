@@ -117,7 +117,7 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
     tc_slow(1),
     maxevents_user(-1), maxevents_warn(0), overlap_push(0), maxpush(DEFAULT_MAXPUSH),
     reach_user(-1.0), gpu_requested(0), device_request(-1), backend_device(-1), friction_on(0),
-    disc_user(0), inertia(0.4), gpu_friction_warned(0), rmax(0.0),
+    disc_user(0), friction_guard(1), inertia(0.4), gpu_friction_warned(0), rmax(0.0),
     reach_base(0.0), reach(0.0), reach_raise(0.0), list_cut(0.0), raise_drift(0.0), step_vmax2(0.0),
     step_amax(0.0), vend2(0.0), maxevents(0), tlast(nullptr), n_step(0.0), n_total(0.0),
     n_wall(0.0), ke_total(0.0), max_events(0.0), events_total(0.0), n_redo(0.0), last_largest(0.0),
@@ -183,7 +183,8 @@ FixHardSphere::~FixHardSphere()
    [order parallel|serial] [tc t|auto] [tc/slow yes|no] [vmin v|auto]
    [maxevents N error|warn]
    [overlap error|push] [maxpush N] [reach d] [gpu yes|no] [device auto|N]
-   [friction mu beta0] [friction/pair I J mu beta0] [wall/friction face mu beta0] [disc] */
+   [friction mu beta0] [friction/pair I J mu beta0] [wall/friction face mu beta0]
+   [friction/guard elastic|none] [disc] */
 void FixHardSphere::parse(int narg, char **arg)
 {
   const int ntypes = atom->ntypes;
@@ -262,6 +263,16 @@ void FixHardSphere::parse(int narg, char **arg)
       walls.beta[face] = beta_arg(arg[iarg + 3], lmp);
       wall_friction[face] = 1;
       iarg += 4;
+    } else if (strcmp(kw, "friction/guard") == 0) {
+      need(1, kw);
+      if (strcmp(arg[iarg + 1], "elastic") == 0)
+        friction_guard = 1;
+      else if (strcmp(arg[iarg + 1], "none") == 0)
+        friction_guard = 0;
+      else
+        error->all(FLERR, "Fix hardsphere: friction/guard must be elastic or none, got {}",
+                   arg[iarg + 1]);
+      iarg += 2;
     } else if (strcmp(kw, "disc") == 0) {
       disc_user = 1;
       iarg += 1;

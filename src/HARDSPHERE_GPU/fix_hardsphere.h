@@ -79,6 +79,7 @@ class FixHardSphere : public Fix {
   std::vector<double> fpair;
   int friction_on;     // 1: some pair or wall has mu > 0 (else smooth spheres, as without)
   int disc_user;       // 1: 'disc' given (moment of inertia 0.5 m r^2)
+  int friction_guard;  // 1: collisions the guards make elastic are tangentially elastic too
   double inertia;      // moment of inertia / (m r^2) of this run (init())
   int gpu_friction_warned;    // the WARNING that friction runs on the CPU backend was given
 

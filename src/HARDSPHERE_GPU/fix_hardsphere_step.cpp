@@ -91,7 +91,9 @@ Params FixHardSphere::step_params() const
   p.ntypes = atom->ntypes;
   p.epair = epair.data();
   p.maxevents = (long) maxevents;
-  p.friction = friction_on;
+  p.friction = !friction_on ? 0
+               : friction_guard ? HSGPU::Collide::FRICTION_GUARDED
+                                : HSGPU::Collide::FRICTION_WALTON;
   p.inertia = inertia;
   p.fpair = fpair.data();
   return p;

@@ -36,14 +36,14 @@ Result run(const Scene &s, double drift, double least_events)
 
 // A pour comes to rest and stays there: bounded events per sphere per step (no inelastic
 // collapse), no runaway step, a kinetic energy of order N m (g dt)^2 at t = 75.
-void pour_case(double e)
+void pour_case(double e, double mu = 0.0)
 {
-  const Scene s = pour(e, long_mode());
+  const Scene s = mu > 0.0 ? rough_pour(e, mu, long_mode()) : pour(e, long_mode());
   const Result r = run(s, 1e-9, 1e5);
   const double dt = 75.0 / (double) s.steps, scale = r.natoms * dt * dt;    // N m (g dt)^2
-  std::printf("[ HARD     ] pour e = %g: %ld spheres, %.2f events per sphere per step at the "
-              "end, at most %.1f per sphere in a step, kinetic energy %.3g N m (g dt)^2\n",
-              e, r.natoms, r.last_per_sphere_step, r.max_events_step / r.natoms, r.ke_end / scale);
+  std::printf("[ HARD     ] pour e = %g, mu = %g: %ld spheres, %.2f events per sphere per step "
+              "at the end, at most %.1f per sphere in a step, kinetic energy %.3g N m (g dt)^2\n",
+              e, mu, r.natoms, r.last_per_sphere_step, r.max_events_step / r.natoms, r.ke_end / scale);
   EXPECT_GT(r.last_per_sphere_step, 0.1) << "a pile on the floor has resting contacts";
   EXPECT_LT(r.last_per_sphere_step, 8.0);
   EXPECT_LT(r.max_events_step, 20.0 * r.natoms);
@@ -63,6 +63,12 @@ TEST(HardCases, PourWithRestitutionTenth)
 TEST(HardCases, PourWithRestitutionHalf)
 {
   pour_case(0.5);
+}
+// Issue 15: rough spheres (Walton's rule, mu = 0.5 between the spheres and on the floor) pour
+// and settle with the same guards and bounds.
+TEST(HardCases, RoughPourWithRestitutionHalfAndFriction)
+{
+  pour_case(0.5, 0.5);
 }
 
 TEST(HardCases, FccAtPackingFraction06)

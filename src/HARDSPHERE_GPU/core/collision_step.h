@@ -58,6 +58,15 @@ namespace Collide {
   /// dt = 0.1 with g = 1, d = 0.9 would otherwise make collisions below 1.5 elastic).
   constexpr double SPEED_TC_CAP = 0.005;
 
+  /// Params::friction: rough spheres whose collisions the guards make elastic (TC model,
+  /// elastic threshold: e1 = 1 where e < 1) are elastic in their tangential part too, the
+  /// perfectly rough elastic impulse (friction/guard elastic, the default); or Walton's rule
+  /// in every collision (friction/guard none).  Measured in doc/fix_hardsphere.md: with
+  /// Walton's rule in the guarded collisions friction drains the agitation that the elastic
+  /// threshold keeps in a settled pile, and its cost grows twentyfold.
+  constexpr int FRICTION_GUARDED = 1;
+  constexpr int FRICTION_WALTON = 2;
+
   /// The TC time the speed thresholds use: tc, capped at SPEED_TC_CAP sqrt(d / amax).
   HSGPU_HD double speed_tc(double tc, double amax, double d)
   {
@@ -154,7 +163,10 @@ namespace Collide {
                           Friction::rotational_compliance(k, bi.mass, bi.radius) +
                           Friction::rotational_compliance(k, bj.mass, bj.radius);
         const double mt = 1.0 / cm;
-        Friction::tangential_impulse(g, n, J, mt, fr[0], fr[1], gt, P);
+        // A collision that the guards made elastic (e1 = 1 for e0 < 1) is elastic in its
+        // tangential part too, with friction/guard elastic (p.friction == 1).
+        const int elastic = p.friction == FRICTION_GUARDED && e1 != e0;
+        Friction::tangential_impulse(g, n, J, mt, fr[0], fr[1], elastic, gt, P);
         for (int d = 0; d < 3; ++d) {
           bi.v[d] += P[d] / bi.mass;
           bj.v[d] -= P[d] / bj.mass;
@@ -188,10 +200,10 @@ namespace Collide {
 
   /// Walton's rule (friction.h) at a wall collision of body b with face f (dimension d, sign s)
   /// at time t whose normal impulse was Jn >= 0, the centre at distance h from the wall: the
-  /// wall has infinite mass and no spin.  (Components are picked without runtime indices, as
-  /// in process_wall.)
+  /// wall has infinite mass and no spin.  elastic: the guards made the bounce elastic.
+  /// (Components are picked without runtime indices, as in process_wall.)
   HSGPU_HD void rough_wall(Body &b, int d, double s, double t, double Jn, double h, int f,
-                           const Params &p, Tally &tally, double *wb)
+                           int elastic, const Params &p, Tally &tally, double *wb)
   {
     const double n[3] = {d == 0 ? s : 0.0, d == 1 ? s : 0.0, d == 2 ? s : 0.0};
     const double tt = t - 0.5 * p.dt;
@@ -201,7 +213,7 @@ namespace Collide {
     for (int k = 0; k < 3; ++k) g[k] = b.v[k] + b.a[k] * tt - c[k];
     const double kI = p.inertia;
     const double mt = 1.0 / (1.0 / b.mass + Friction::rotational_compliance(kI, b.mass, b.radius));
-    Friction::tangential_impulse(g, n, Jn, mt, p.walls.mu[f], p.walls.beta[f], gt, P);
+    Friction::tangential_impulse(g, n, Jn, mt, p.walls.mu[f], p.walls.beta[f], elastic, gt, P);
     // P is normal to n up to round-off: the normal velocity stays the one just set.
     P[0] = d == 0 ? 0.0 : P[0];
     P[1] = d == 1 ? 0.0 : P[1];
@@ -274,8 +286,14 @@ namespace Collide {
     tally.virial[1] = d == 1 ? tally.virial[1] + w : tally.virial[1];
     tally.virial[2] = d == 2 ? tally.virial[2] + w : tally.virial[2];
     if (wb) wb[d] += w;
-    if (p.friction && p.walls.mu[f] > 0.0) rough_wall(b, d, s, t, b.mass * (un_out - un),
-                                                      P - p.walls.pos[f], f, p, tally, wb);
+    if (p.friction && p.walls.mu[f] > 0.0) {
+      // A resting contact keeps Walton's rule: it is the Coulomb friction of a sphere that
+      // rolls or slides on the wall (mu |a_n| dt per step at most).
+      const int resting = b.rest[d] == f;
+      const int elastic = p.friction == FRICTION_GUARDED && e1 != p.walls.e[f] && !resting;
+      rough_wall(b, d, s, t, b.mass * (un_out - un), P - p.walls.pos[f], f, elastic, p, tally,
+                 wb);
+    }
     tally.wall++;
     b.tlast = t;
   }

@@ -67,16 +67,22 @@ namespace Friction {
 
   /// Walton's tangential impulse P (on sphere i) for the relative contact-point velocity g,
   /// normal n, normal impulse Jn >= 0, effective tangential mass mt, friction mu, tangential
-  /// restitution beta0.  Returns 1 when the contact slides (the Coulomb cap acted), 0 when it
+  /// restitution beta0.  elastic: a collision the guards made elastic (collision_step.h): the
+  /// perfectly rough elastic impulse -2 m_t g_t instead, with no Coulomb cap (g_t is reversed,
+  /// no energy is lost).  Returns 1 when the contact slides (the Coulomb cap acted), 0 when it
   /// sticks (or has no tangential velocity); gt receives g's tangential part.
   HSGPU_HD int tangential_impulse(const double *g, const double *n, double Jn, double mt,
-                                  double mu, double beta0, double *gt, double *P)
+                                  double mu, double beta0, int elastic, double *gt, double *P)
   {
     const double gn = g[0] * n[0] + g[1] * n[1] + g[2] * n[2];
     for (int d = 0; d < 3; ++d) gt[d] = g[d] - gn * n[d];
     const double gt2 = gt[0] * gt[0] + gt[1] * gt[1] + gt[2] * gt[2];
     if (!(gt2 > 0.0)) {
       P[0] = P[1] = P[2] = 0.0;
+      return 0;
+    }
+    if (elastic) {
+      for (int d = 0; d < 3; ++d) P[d] = -2.0 * mt * gt[d];
       return 0;
     }
     const double gabs = sqrt(gt2);
