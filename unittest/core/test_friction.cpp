@@ -357,3 +357,44 @@ TEST(Friction, StickingPairWithBetaZeroEndsRollingForDiscsAndSpheres)
     EXPECT_NEAR(bj.omega[2], -Py / (k * 2.0 * 0.5), 1e-14);
   }
 }
+
+// friction/guard elastic (Params::friction = FRICTION_GUARDED): a collision that the TC model
+// makes elastic is elastic in its tangential part too (the contact velocity reversed, no cap,
+// no energy lost); with FRICTION_WALTON it gets Walton's rule.  A collision the guards leave
+// alone gets Walton's rule either way.
+TEST(Friction, GuardedCollisionsAreTangentiallyElastic)
+{
+  const double a[3] = {0, 0, 0}, wi[3] = {0, 0, 10.0}, w0[3] = {0, 0, 0};
+  const double xi[3] = {1.0, 0, 0}, xj[3] = {0, 0, 0};
+  const double vi[3] = {-1.0, 0.7, 0}, vj[3] = {0, -0.2, 0};
+  for (int mode : {FRICTION_GUARDED, FRICTION_WALTON}) {
+    for (double since : {0.01, 10.0}) {    // within tc = 0.1 of i's last collision, or not
+      Rough s(1.0, 0.5, 0.2, 0.3);
+      s.p.tc = 0.1;
+      s.p.friction = mode;
+      Body bi = body(1, xi, vi, wi, a, 0.5, 1.0), bj = body(2, xj, vj, w0, a, 0.5, 2.0);
+      bi.tlast = -since;
+      Tally tally;
+      process_pair(bi, bj, Edge{0, 1, {0, 0, 0}}, 0.0, s.p, tally);
+      const double g0 = (vi[1] - vj[1]) - 0.5 * wi[2];
+      const double g1 = (bi.v[1] - bj.v[1]) - (0.5 * bi.omega[2] + 0.5 * bj.omega[2]);
+      const double vn1 = bi.v[0] - bj.v[0];
+      if (since < 0.1) {
+        EXPECT_NEAR(vn1, 1.0, 1e-15) << "the TC model made it elastic";
+      } else {
+        EXPECT_NEAR(vn1, 0.5, 1e-15);
+      }
+      if (since < 0.1 && mode == FRICTION_GUARDED) {
+        EXPECT_NEAR(g1, -g0, 1e-15) << "perfectly rough elastic, no Coulomb cap";
+        EXPECT_NEAR(tally.ke_lost, 0.0, 1e-15);
+      } else {
+        // Walton: mu Jn = 0.2 (1 + e1) m_eff 1 caps the sticking impulse (1.3 m_t |g0|).
+        const double e1 = since < 0.1 ? 1.0 : 0.5, meff = 2.0 / 3.0, mt = meff * 0.4 / 1.4;
+        const double cap = 0.2 * (1 + e1) * meff, stick = 1.3 * mt * std::fabs(g0);
+        ASSERT_GT(stick, cap);
+        EXPECT_NEAR(g1, g0 + (g0 > 0 ? -cap : cap) / mt, 1e-14);
+        EXPECT_GT(tally.ke_lost, 0.0);
+      }
+    }
+  }
+}

@@ -86,8 +86,8 @@ void print_row(const Scene &s, const Result &r);
 // run to t = 75.
 Scene pour(double e, bool long_size);
 // The same pour with friction mu and tangential restitution 0.3 between the spheres and on
-// the floor (issue 15).
-Scene rough_pour(double e, double mu, bool long_size);
+// the floor (issue 15); guard false: friction/guard none.
+Scene rough_pour(double e, double mu, bool long_size, bool guard = true);
 // Elastic spheres of diameter 1 on an fcc or sc lattice at packing fraction phi, T = 1.
 Scene crystal(const char *style, double phi, bool long_size);
 // Diameters 1 and 10 (the big ones dropped onto a bed of small ones) under gravity, e = 0.9.
