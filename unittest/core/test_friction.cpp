@@ -398,3 +398,27 @@ TEST(Friction, GuardedCollisionsAreTangentiallyElastic)
     }
   }
 }
+
+// A sphere resting on the floor (not tested against it until its next pair collision) that
+// hits a rough side wall: that wall's friction pushes it down, so the floor is tested again
+// and found at once (before, the sphere sank into the floor unseen).
+TEST(Friction, SideWallFrictionWakesTheFloorContact)
+{
+  const double dt = 0.1, r = 0.5, t = 0.04;
+  Rough s(dt, 0.5, 0.5, 0.3);
+  s.p.walls.on[0] = s.p.walls.on[4] = 1;
+  const double x[3] = {r, 0, r}, v[3] = {-1.0, 0, 0}, w[3] = {0, 2.0, 0}, a[3] = {0, 0, -1.0};
+  Body b = body(1, x, v, w, a, r, 1.0);
+  b.tref = t;
+  b.x[2] = r - bow(b, 2, t, dt);    // on the floor at t
+  b.v[2] = -b.a[2] * (t - 0.5 * dt);    // true vertical velocity 0 at t: resting there
+  b.rest[2] = 4;
+  Tally tally;
+  process_wall(b, 0, t, s.p, tally);
+  // n = +x, w x n = (0, 0, -w_y): g_z = u_z + r w_y = 1 > 0, so P_z < 0.
+  EXPECT_LT(b.v[2] + b.a[2] * (t - 0.5 * dt), 0.0) << "pushed down";
+  EXPECT_EQ(b.rest[2], -1) << "the floor is tested again";
+  int face = -1;
+  EXPECT_EQ(wall_event_time(b, s.p.walls, dt, face), t);
+  EXPECT_EQ(face, 4);
+}

@@ -323,3 +323,35 @@ TEST(FixHardSphereFriction, BadInputStopsWithANamedError)
   EXPECT_EQ(error_of("friction 0.5 0.2 gpu yes", {"fix a all nve/sphere"}), "")
       << "friction with gpu yes runs on the CPU backend with a warning";
 }
+
+// A rough sphere pressed into a corner (floor and side wall, gravity towards both) and spinning:
+// the friction of one wall moves it along the other, where it may be resting; that wall is
+// tested again, so the sphere never sinks into either (found in a collapsing column: a sphere
+// in the corner sank 1e-6 into the floor).
+TEST(FixHardSphereFriction, SphereInACornerStaysOutOfBothWalls)
+{
+  for (const char *guard : {"elastic", "none"}) {
+    Lammps lmp;
+    lmp.commands({"units lj", "atom_style sphere", "atom_modify map array", "boundary f p f",
+                  "region box block 0 10 -5 5 0 10", "create_box 1 box",
+                  "create_atoms 1 single 0.5 0 0.5 units box", "set atom 1 diameter 1.0",
+                  "set atom 1 mass 1.0", "velocity all set -0.3 0.2 -0.1",
+                  "set atom 1 omega 1.0 2.0 -3.0", "comm_modify vel yes",
+                  "neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere",
+                  "fix g all gravity 1.0 vector -0.3 0 -1",
+                  std::string("fix hs all hardsphere wall xlo 0.5 wall zlo 0.5 wall/friction xlo "
+                              "0.5 0.3 wall/friction zlo 0.5 0.3 friction/guard ") +
+                      guard,
+                  "timestep 0.01"});
+    double lowest[2] = {1e300, 1e300};
+    for (int k = 0; k < 40; ++k) {
+      ASSERT_EQ(lmp.command("run 25 pre no post no"), "") << guard;
+      const auto x = lmp.gather("x", 3);
+      lowest[0] = std::min(lowest[0], x[0]);
+      lowest[1] = std::min(lowest[1], x[2]);
+    }
+    EXPECT_GT(lowest[0], 0.5 - 1e-9) << guard;
+    EXPECT_GT(lowest[1], 0.5 - 1e-9) << guard;
+    EXPECT_GT(lmp.fix_vector("hs", 2), 50.0) << "wall collisions";
+  }
+}

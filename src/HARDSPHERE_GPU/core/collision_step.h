@@ -219,6 +219,11 @@ namespace Collide {
     P[1] = d == 1 ? 0.0 : P[1];
     P[2] = d == 2 ? 0.0 : P[2];
     for (int k = 0; k < 3; ++k) b.v[k] += P[k] / b.mass;
+    // The impulse moves the body along the other dimensions: a wall it rests on there (a
+    // sphere in a corner, on the floor against a side wall) must be tested again, or it
+    // could be driven into it unseen.
+    for (int k = 0; k < 3; ++k)
+      if (k != d && P[k] != 0.0) b.rest[k] = -1;
     Friction::spin_change(n, P, kI, b.mass, b.radius, dw);
     for (int k = 0; k < 3; ++k) b.omega[k] += dw[k];
     tally.ke_lost -= Friction::energy_change(P, gt, mt);
