@@ -77,10 +77,10 @@ class FixHardSphere : public Fix {
   // Rough spheres: friction mu and tangential restitution beta0 of type pairs, 2 per pair
   // ((ntypes + 1)^2 pairs); walls.mu and walls.beta for the walls.
   std::vector<double> fpair;
-  int friction_on;     // 1: some pair or wall has mu > 0 (else smooth spheres, as without)
-  int disc_user;       // 1: 'disc' given (moment of inertia 0.5 m r^2)
-  int friction_guard;  // 1: collisions the guards make elastic are tangentially elastic too
-  double inertia;      // moment of inertia / (m r^2) of this run (init())
+  int friction_on;            // 1: some pair or wall has mu > 0 (else smooth spheres)
+  int disc_user;              // 1: 'disc' given (moment of inertia 0.5 m r^2)
+  int friction_guard;         // 1: guarded collisions are tangentially elastic too
+  double inertia;             // moment of inertia / (m r^2) of this run (init())
   int gpu_friction_warned;    // the WARNING that friction runs on the CPU backend was given
 
   // --- derived in init() ----------------------------------------------------------------

@@ -91,9 +91,10 @@ Params FixHardSphere::step_params() const
   p.ntypes = atom->ntypes;
   p.epair = epair.data();
   p.maxevents = (long) maxevents;
-  p.friction = !friction_on ? 0
-               : friction_guard ? HSGPU::Collide::FRICTION_GUARDED
-                                : HSGPU::Collide::FRICTION_WALTON;
+  p.friction = 0;
+  if (friction_on)
+    p.friction =
+        friction_guard ? HSGPU::Collide::FRICTION_GUARDED : HSGPU::Collide::FRICTION_WALTON;
   p.inertia = inertia;
   p.fpair = fpair.data();
   return p;

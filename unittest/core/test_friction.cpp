@@ -168,7 +168,7 @@ TEST(Friction, WallConservesSpinAboutTheContactAndNeverGainsEnergy)
     const double dt = 0.05;
     Rough s(dt, e, mu, beta0);
     s.p.tc = k % 3 == 0 ? 0.01 : 0.0;    // some resting contacts (a hop, not a bounce)
-    const int f = 4;                      // floor zlo at 0
+    const int f = 4;                     // floor zlo at 0
     s.p.walls.on[f] = 1;
     const double r = 0.2 + pos(rng), m = 0.1 + 3 * pos(rng);
     const double a[3] = {0.2 * u(rng), 0.2 * u(rng), -1.0};
@@ -220,8 +220,8 @@ TEST(Friction, SphereOnAFloorReboundsAsWaltonsRuleSays)
   };
   // g_x = vx - r wy: sliding where (1 + beta0) m_t |g_x| > mu (1 + e) m vz,
   // m_t = m k / (1 + k) = 2m/7.
-  const Case cases[] = {{0.1, 2.0, -1.0, true},  {0.5, 2.0, 0.0, false}, {0.2, 0.5, 8.0, true},
-                        {0.9, 0.5, 8.0, false},  {0.1, -1.5, 2.0, true}, {1.0, 1.0, -2.0, false}};
+  const Case cases[] = {{0.1, 2.0, -1.0, true}, {0.5, 2.0, 0.0, false}, {0.2, 0.5, 8.0, true},
+                        {0.9, 0.5, 8.0, false}, {0.1, -1.5, 2.0, true}, {1.0, 1.0, -2.0, false}};
   for (const Case &cs : cases) {
     Rough s(1.0, e, cs.mu, beta0);
     s.p.walls.on[4] = 1;
@@ -257,8 +257,8 @@ TEST(Friction, SphereOnAFloorReboundsAsWaltonsRuleSays)
     // Energy: translation and rotation.
     const double I = k * m * r * r;
     const double ke0 = 0.5 * m * (cs.vx * cs.vx + vz * vz) + 0.5 * I * cs.wy * cs.wy;
-    const double ke1 = 0.5 * m * (b.v[0] * b.v[0] + b.v[2] * b.v[2]) +
-                       0.5 * I * b.omega[1] * b.omega[1];
+    const double ke1 =
+        0.5 * m * (b.v[0] * b.v[0] + b.v[2] * b.v[2]) + 0.5 * I * b.omega[1] * b.omega[1];
     EXPECT_NEAR(tally.ke_lost, ke0 - ke1, 1e-14 * ke0);
   }
 }
@@ -410,7 +410,7 @@ TEST(Friction, SideWallFrictionWakesTheFloorContact)
   const double x[3] = {r, 0, r}, v[3] = {-1.0, 0, 0}, w[3] = {0, 2.0, 0}, a[3] = {0, 0, -1.0};
   Body b = body(1, x, v, w, a, r, 1.0);
   b.tref = t;
-  b.x[2] = r - bow(b, 2, t, dt);    // on the floor at t
+  b.x[2] = r - bow(b, 2, t, dt);        // on the floor at t
   b.v[2] = -b.a[2] * (t - 0.5 * dt);    // true vertical velocity 0 at t: resting there
   b.rest[2] = 4;
   Tally tally;

@@ -309,10 +309,10 @@ Scene rough_pour(double e, double mu, bool long_size, bool guard)
   Scene s = pour(e, long_size);
   s.name = line("rough pour, e = %g, mu = %g, to t = 75", e, mu) +
            (guard ? "" : ", friction/guard none");
-  s.fixes = dynamics(line("restitution %g wall zlo %g wall zhi %g friction %g 0.3 ", e, e, e, mu) +
-                         line("wall/friction zlo %g 0.3", mu) +
-                         (guard ? "" : " friction/guard none"),
-                     long_size ? 0.01 : 0.02);
+  s.fixes =
+      dynamics(line("restitution %g wall zlo %g wall zhi %g friction %g 0.3 ", e, e, e, mu) +
+                   line("wall/friction zlo %g 0.3", mu) + (guard ? "" : " friction/guard none"),
+               long_size ? 0.01 : 0.02);
   s.fixes.push_back("fix g all gravity 1.0 vector 0 0 -1");
   s.rough = true;
   return s;

@@ -49,7 +49,8 @@ struct Scene {
   long steps = 0;       // steps of the run (a long run goes on in chunks to target_events())
   long chunk = 100;     // steps between the checks
   bool pour = false;    // report events per sphere per step
-  bool rough = false;   // friction: the energy balance includes the spheres' rotation
+  // Friction: the energy balance includes the spheres' rotation.
+  bool rough = false;
   std::function<void(long chunk, std::vector<double> &x, std::vector<double> &v)> place;
   std::function<std::string(long chunk, const std::vector<double> &x, const std::vector<double> &v,
                             double collisions)>

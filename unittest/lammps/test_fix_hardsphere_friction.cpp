@@ -64,8 +64,8 @@ Ball analytic_ball(Ball b, double T, double zlo, double R, double g, double e, d
     const double gx = b.vx - R * b.wy;    // contact point velocity (n = +z)
     const double Jn = (1 + e) * -un;      // per unit mass
     const double stick = (1 + beta0) * (2.0 / 7.0) * std::fabs(gx);
-    const double P = stick <= mu * Jn ? -(1 + beta0) * (2.0 / 7.0) * gx
-                                      : -mu * Jn * (gx > 0 ? 1.0 : -1.0);
+    const double P =
+        stick <= mu * Jn ? -(1 + beta0) * (2.0 / 7.0) * gx : -mu * Jn * (gx > 0 ? 1.0 : -1.0);
     b.vx += P;
     b.wy -= P / (0.4 * R);
   }

@@ -43,7 +43,8 @@ void pour_case(double e, double mu = 0.0, bool guard = true, double most = 8.0)
   const double dt = 75.0 / (double) s.steps, scale = r.natoms * dt * dt;    // N m (g dt)^2
   std::printf("[ HARD     ] pour e = %g, mu = %g: %ld spheres, %.2f events per sphere per step "
               "at the end, at most %.1f per sphere in a step, kinetic energy %.3g N m (g dt)^2\n",
-              e, mu, r.natoms, r.last_per_sphere_step, r.max_events_step / r.natoms, r.ke_end / scale);
+              e, mu, r.natoms, r.last_per_sphere_step, r.max_events_step / r.natoms,
+              r.ke_end / scale);
   EXPECT_GT(r.last_per_sphere_step, 0.1) << "a pile on the floor has resting contacts";
   EXPECT_LT(r.last_per_sphere_step, most);
   EXPECT_LT(r.max_events_step, 2.5 * most * r.natoms);

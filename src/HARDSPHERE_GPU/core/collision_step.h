@@ -153,11 +153,9 @@ namespace Collide {
         // changed only the normal part of the contact velocity.
         double g[3], c[3], ws[3], gt[3], P[3], dw[3];
         const double h = t - 0.5 * p.dt;
-        for (int d = 0; d < 3; ++d)
-          ws[d] = bi.radius * bi.omega[d] + bj.radius * bj.omega[d];
+        for (int d = 0; d < 3; ++d) ws[d] = bi.radius * bi.omega[d] + bj.radius * bj.omega[d];
         Friction::cross3(ws, n, c);
-        for (int d = 0; d < 3; ++d)
-          g[d] = (bi.v[d] - bj.v[d]) + (bi.a[d] - bj.a[d]) * h - c[d];
+        for (int d = 0; d < 3; ++d) g[d] = (bi.v[d] - bj.v[d]) + (bi.a[d] - bj.a[d]) * h - c[d];
         const double k = p.inertia;
         const double cm = 1.0 / bi.mass + 1.0 / bj.mass +
                           Friction::rotational_compliance(k, bi.mass, bi.radius) +
@@ -296,8 +294,7 @@ namespace Collide {
       // rolls or slides on the wall (mu |a_n| dt per step at most).
       const int resting = b.rest[d] == f;
       const int elastic = p.friction == FRICTION_GUARDED && e1 != p.walls.e[f] && !resting;
-      rough_wall(b, d, s, t, b.mass * (un_out - un), P - p.walls.pos[f], f, elastic, p, tally,
-                 wb);
+      rough_wall(b, d, s, t, b.mass * (un_out - un), P - p.walls.pos[f], f, elastic, p, tally, wb);
     }
     tally.wall++;
     b.tlast = t;

@@ -71,8 +71,8 @@ namespace Friction {
   /// perfectly rough elastic impulse -2 m_t g_t instead, with no Coulomb cap (g_t is reversed,
   /// no energy is lost).  Returns 1 when the contact slides (the Coulomb cap acted), 0 when it
   /// sticks (or has no tangential velocity); gt receives g's tangential part.
-  HSGPU_HD int tangential_impulse(const double *g, const double *n, double Jn, double mt,
-                                  double mu, double beta0, int elastic, double *gt, double *P)
+  HSGPU_HD int tangential_impulse(const double *g, const double *n, double Jn, double mt, double mu,
+                                  double beta0, int elastic, double *gt, double *P)
   {
     const double gn = g[0] * n[0] + g[1] * n[1] + g[2] * n[2];
     for (int d = 0; d < 3; ++d) gt[d] = g[d] - gn * n[d];

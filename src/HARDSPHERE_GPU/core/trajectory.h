@@ -44,9 +44,6 @@ namespace Collide {
     double exc2;     // largest squared distance of the drift line from X0 so far
     double w0[3];    // drift-line position at the start of the current time window
     double wexc2;    // largest squared distance of the drift line from w0 in the window
-    double omega[3];    // angular velocity (friction only; zero and untouched for smooth
-                        // spheres): the integrator's half-step value, taken as the true one
-                        // throughout the step (torques of other styles are not followed in it)
     long id;         // atom ID (> 0): fixes the order of simultaneous events
     long last;       // ID of the partner of the body's latest event if that was a pair
                      // collision that left its drift line unchanged since, else 0
@@ -55,6 +52,10 @@ namespace Collide {
                     // face is not tested again until the body's next pair collision
     int nevents;    // events this step (also the version stamp of its event candidates)
     int owner;      // free for the caller (a local atom index)
+    // Angular velocity (friction only; zero and untouched for smooth spheres): the
+    // integrator's half-step value, taken as the true one throughout the step (torques of
+    // other styles are not followed within it).
+    double omega[3];
   };
 
   /// A pair that may touch within the step: bodies i and j (id of i < id of j); the periodic
@@ -88,8 +89,10 @@ namespace Collide {
     // tangential branches are never entered (nor inertia, fpair, walls.mu, walls.beta read).
     // No default member initializers: Params stays trivial, copied bytewise to the device.
     int friction;
-    double inertia;            // moment of inertia / (m r^2)
-    const double *fpair;       // mu, beta0 of type pair (ti, tj) at 2 (ti * (ntypes + 1) + tj), +1
+    // Moment of inertia / (m r^2).
+    double inertia;
+    // mu and beta0 of type pair (ti, tj) at 2 (ti * (ntypes + 1) + tj) and the next one.
+    const double *fpair;
   };
 
   /// What the events of a step did.
