@@ -37,6 +37,7 @@ def angle(pts, width=1.2):
     return math.degrees(math.atan(-sxz / sxx)), h, max(x for x, _ in pts)
 
 
-for path in sys.argv[1:]:
-    a, h, runout = angle(heap(path))
-    print(f"{path}: angle of repose {a:.1f} deg, heap height {h:.2f}, runout {runout:.2f}")
+if __name__ == "__main__":
+    for path in sys.argv[1:]:
+        a, h, runout = angle(heap(path))
+        print(f"{path}: angle of repose {a:.1f} deg, heap height {h:.2f}, runout {runout:.2f}")
