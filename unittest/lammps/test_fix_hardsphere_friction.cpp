@@ -355,3 +355,37 @@ TEST(FixHardSphereFriction, SphereInACornerStaysOutOfBothWalls)
     EXPECT_GT(lmp.fix_vector("hs", 2), 50.0) << "wall collisions";
   }
 }
+
+// The tangential impulses enter the virial: summed over the atoms, the per-atom virial of a
+// rough pile (pairs and rough walls) is minus the global collision virial in all six components
+// at every step, in both orders, and asking for it changes no trajectory.
+TEST(FixHardSphereFriction, PerAtomVirialSumsToTheGlobalOneEveryStep)
+{
+  for (const char *order : {"order serial", "order parallel"}) {
+    std::vector<double> x[2];
+    for (int with = 0; with < 2; ++with) {
+      Lammps lmp;
+      lmp.commands(rough_pile(std::string(kRough) + " " + order));
+      if (with)
+        lmp.commands(
+            {"compute s all stress/atom NULL fix",
+             "compute red all reduce sum c_s[1] c_s[2] c_s[3] c_s[4] c_s[5] c_s[6]",
+             "compute pv all pressure NULL virial",
+             "variable d equal abs(c_red[1]+c_pv[1]*vol)+abs(c_red[2]+c_pv[2]*vol)+abs(c_red[3]+"
+             "c_pv[3]*vol)+abs(c_red[4]+c_pv[4]*vol)+abs(c_red[5]+c_pv[5]*vol)+abs(c_red[6]+c_pv["
+             "6]*vol)",
+             "variable m equal abs(c_red[1])+abs(c_red[2])+abs(c_red[3])",
+             "variable o equal abs(c_red[4])+abs(c_red[5])+abs(c_red[6])",
+             "fix avg all ave/time 1 300 300 v_d v_m v_o"});
+      lmp.commands({"run 300"});
+      x[with] = lmp.gather("x", 3);
+      if (with) {
+        const double d = lmp.fix_vector("avg", 0), m = lmp.fix_vector("avg", 1);
+        EXPECT_GT(m, 1.0) << order;
+        EXPECT_GT(lmp.fix_vector("avg", 2), 0.0) << order << ": off-diagonal terms";
+        EXPECT_LT(d, 1e-12 * m) << order;
+      }
+    }
+    EXPECT_EQ(max_abs_diff(x[0], x[1]), 0.0) << order;
+  }
+}
