@@ -117,7 +117,7 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
     tc_slow(1),
     maxevents_user(-1), maxevents_warn(0), overlap_push(0), maxpush(DEFAULT_MAXPUSH),
     reach_user(-1.0), gpu_requested(0), device_request(-1), backend_device(-1), friction_on(0),
-    disc_user(0), friction_guard(1), inertia(0.4), gpu_friction_warned(0), rmax(0.0),
+    disc_user(0), friction_guard(1), inertia(0.4), rmax(0.0),
     reach_base(0.0), reach(0.0), reach_raise(0.0), list_cut(0.0), raise_drift(0.0), step_vmax2(0.0),
     step_amax(0.0), vend2(0.0), maxevents(0), tlast(nullptr), n_step(0.0), n_total(0.0),
     n_wall(0.0), ke_total(0.0), max_events(0.0), events_total(0.0), n_redo(0.0), last_largest(0.0),
@@ -630,15 +630,7 @@ double FixHardSphere::inserted_radius()
 void FixHardSphere::setup_backend()
 {
   int device = -1;
-  // Friction is resolved on the host for now: the device steps do not carry omega.
-  if (gpu_requested && friction_on) {
-    if (!gpu_friction_warned && comm->me == 0)
-      error->warning(FLERR, "Fix hardsphere: friction runs on the CPU backend for now; 'gpu yes' "
-                            "is ignored");
-    gpu_friction_warned = 1;
-  } else if (gpu_requested) {
-    device = hsgpu_choose_device(lmp, world, device_request, "Fix hardsphere");
-  }
+  if (gpu_requested) device = hsgpu_choose_device(lmp, world, device_request, "Fix hardsphere");
   if (device == backend_device && backend) return;
   backend.reset();
   resident.reset();

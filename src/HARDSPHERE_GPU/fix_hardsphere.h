@@ -81,7 +81,6 @@ class FixHardSphere : public Fix {
   int disc_user;              // 1: 'disc' given (moment of inertia 0.5 m r^2)
   int friction_guard;         // 1: guarded collisions are tangentially elastic too
   double inertia;             // moment of inertia / (m r^2) of this run (init())
-  int gpu_friction_warned;    // the WARNING that friction runs on the CPU backend was given
 
   // --- derived in init() ----------------------------------------------------------------
   double rmax;           // largest radius in the group

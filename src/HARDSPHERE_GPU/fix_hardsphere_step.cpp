@@ -1149,6 +1149,7 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
       a.reach = reach;
       a.never = NEVER_COLLIDED;
       a.same_atoms = same;
+      a.omega = (friction_on && a.n) ? atom->omega[0] : nullptr;    // rough spheres
       resident->run_atoms(a, box, step_params(), wsettings, mine, report);
       // The budget's checks, and bound_floor for the host should the device decline.
       check_budget(report.vmax2, report.amax, report.rmax);

@@ -321,7 +321,8 @@ TEST(FixHardSphereFriction, BadInputStopsWithANamedError)
   EXPECT_THAT(error_of("wall zlo 1 wall/friction top 0.5 0.2"), HasSubstr("unknown wall face"));
   EXPECT_THAT(error_of("friction 0.5 0.2 disc"), HasSubstr("disc requires a 2d simulation"));
   EXPECT_EQ(error_of("friction 0.5 0.2 gpu yes", {"fix a all nve/sphere"}), "")
-      << "friction with gpu yes runs on the CPU backend with a warning";
+      << "friction with gpu yes runs (on the device, or with a warning on the CPU backend "
+         "where there is none)";
 }
 
 // A rough sphere pressed into a corner (floor and side wall, gravity towards both) and spinning:

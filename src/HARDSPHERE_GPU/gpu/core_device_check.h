@@ -155,9 +155,10 @@ namespace GPU {
   }
 
   /// Evaluates cases[0 .. n) on CUDA device `device`, one thread per case, with the
-  /// restitution table epair ((ntypes + 1)^2 values, copied to the device), into out[0 .. n).
+  /// restitution and friction tables (core_tables_size(ntypes) values, copied to the device),
+  /// into out[0 .. n).
   /// Throws HSGPU::GPU::Error when CUDA fails or the package was built without CUDA.
-  void run_core_cases_on_device(int device, const CoreCase *cases, int n, const double *epair,
+  void run_core_cases_on_device(int device, const CoreCase *cases, int n, const double *tables,
                                 int ntypes, CoreResult *out);
 
 }    // namespace GPU
