@@ -42,6 +42,9 @@
 #include "update.h"
 #include "utils.h"
 
+#include "fix_nh_sphere.h"
+#include "fix_nve_sphere.h"
+
 #include "fix_hardsphere_exchange.h"
 #include "gpu/collision_backend_cuda.h"
 #include "gpu/resident_step_cuda.h"
@@ -65,6 +68,40 @@ constexpr int NVECTOR = 26;
 constexpr int DEFAULT_MAXPUSH = 1000;    // overlap push passes before giving up
 constexpr int RESTART_FORMAT = 2;        // global restart data: -format, count, values
 
+double friction_arg(const char *arg, LAMMPS *lmp)
+{
+  const double mu = utils::numeric(FLERR, arg, false, lmp);
+  if (!(mu >= 0.0) || !std::isfinite(mu))
+    lmp->error->all(FLERR, "Fix hardsphere: friction coefficient mu must be >= 0, got {}", arg);
+  return mu;
+}
+
+double beta_arg(const char *arg, LAMMPS *lmp)
+{
+  const double b = utils::numeric(FLERR, arg, false, lmp);
+  if (!(b >= -1.0 && b <= 1.0))
+    lmp->error->all(FLERR,
+                    "Fix hardsphere: tangential restitution beta0 must be between -1 and 1, got {}",
+                    arg);
+  return b;
+}
+
+/* The protected moment-of-inertia factor of LAMMPS's sphere integrators (0.4, or 0.5 with
+   their 'disc' keyword), read through a pointer to member formed in a derived class (these
+   classes are never instantiated). */
+struct NVESpherePeek : FixNVESphere {
+  static double inertia_of(Fix *f)
+  {
+    return static_cast<FixNVESphere *>(f)->*(&NVESpherePeek::inertia);
+  }
+};
+struct NHSpherePeek : FixNHSphere {
+  static double inertia_of(Fix *f)
+  {
+    return static_cast<FixNHSphere *>(f)->*(&NHSpherePeek::inertia);
+  }
+};
+
 double restitution_arg(const char *arg, LAMMPS *lmp)
 {
   const double e = utils::numeric(FLERR, arg, false, lmp);
@@ -79,7 +116,8 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
     Fix(lmp, narg, arg), serial_order(0), nwindows_user(0), tc_user(-1.0), vmin(0.0), vmin_auto(1),
     tc_slow(1),
     maxevents_user(-1), maxevents_warn(0), overlap_push(0), maxpush(DEFAULT_MAXPUSH),
-    reach_user(-1.0), gpu_requested(0), device_request(-1), backend_device(-1), rmax(0.0),
+    reach_user(-1.0), gpu_requested(0), device_request(-1), backend_device(-1), friction_on(0),
+    disc_user(0), friction_guard(1), inertia(0.4), rmax(0.0),
     reach_base(0.0), reach(0.0), reach_raise(0.0), list_cut(0.0), raise_drift(0.0), step_vmax2(0.0),
     step_amax(0.0), vend2(0.0), maxevents(0), tlast(nullptr), n_step(0.0), n_total(0.0),
     n_wall(0.0), ke_total(0.0), max_events(0.0), events_total(0.0), n_redo(0.0), last_largest(0.0),
@@ -119,6 +157,9 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
   if (!atom->tag_enable) error->all(FLERR, "Fix hardsphere requires atom IDs");
 
   parse(narg, arg);
+  if (friction_on && !atom->omega_flag)
+    error->all(FLERR, "Fix hardsphere: friction needs per-atom angular velocities (atom style "
+                      "sphere, omega); this atom style has none");
   exchange = new LammpsExchange(this);
 
   grow_arrays(atom->nmax);
@@ -141,7 +182,9 @@ FixHardSphere::~FixHardSphere()
 /* fix ID group hardsphere [restitution e] [restitution/pair I J e] [wall face e] ...
    [order parallel|serial] [tc t|auto] [tc/slow yes|no] [vmin v|auto]
    [maxevents N error|warn]
-   [overlap error|push] [maxpush N] [reach d] [gpu yes|no] [device auto|N] */
+   [overlap error|push] [maxpush N] [reach d] [gpu yes|no] [device auto|N]
+   [friction mu beta0] [friction/pair I J mu beta0] [wall/friction face mu beta0]
+   [friction/guard elastic|none] [disc] */
 void FixHardSphere::parse(int narg, char **arg)
 {
   const int ntypes = atom->ntypes;
@@ -151,11 +194,24 @@ void FixHardSphere::parse(int narg, char **arg)
     double e;
   };
   std::vector<PairE> pairs;
+  double muglobal = 0.0, betaglobal = -1.0;
+  std::vector<PairE> fpairs;    // e holds mu, fbeta beta0
+  std::vector<double> fbeta;
+  int wall_friction[HSGPU::Collide::NFACES];
   for (int f = 0; f < HSGPU::Collide::NFACES; ++f) {
     walls.on[f] = 0;
     walls.pos[f] = 0.0;
     walls.e[f] = 1.0;
+    walls.mu[f] = 0.0;
+    walls.beta[f] = -1.0;
+    wall_friction[f] = 0;
   }
+  auto face_arg = [&](const char *a) {
+    for (int f = 0; f < HSGPU::Collide::NFACES; ++f)
+      if (strcmp(a, FACES[f]) == 0) return f;
+    error->all(FLERR, "Fix hardsphere: unknown wall face {} (use xlo xhi ylo yhi zlo zhi)", a);
+    return -1;
+  };
 
   int iarg = 3;
   auto need = [&](int n, const char *kw) {
@@ -186,6 +242,40 @@ void FixHardSphere::parse(int narg, char **arg)
       walls.on[face] = 1;
       walls.e[face] = restitution_arg(arg[iarg + 2], lmp);
       iarg += 3;
+    } else if (strcmp(kw, "friction") == 0) {
+      need(2, kw);
+      muglobal = friction_arg(arg[iarg + 1], lmp);
+      betaglobal = beta_arg(arg[iarg + 2], lmp);
+      iarg += 3;
+    } else if (strcmp(kw, "friction/pair") == 0) {
+      need(4, kw);
+      PairE p;
+      utils::bounds(FLERR, arg[iarg + 1], 1, ntypes, p.ilo, p.ihi, error);
+      utils::bounds(FLERR, arg[iarg + 2], 1, ntypes, p.jlo, p.jhi, error);
+      p.e = friction_arg(arg[iarg + 3], lmp);
+      fpairs.push_back(p);
+      fbeta.push_back(beta_arg(arg[iarg + 4], lmp));
+      iarg += 5;
+    } else if (strcmp(kw, "wall/friction") == 0) {
+      need(3, kw);
+      const int face = face_arg(arg[iarg + 1]);
+      walls.mu[face] = friction_arg(arg[iarg + 2], lmp);
+      walls.beta[face] = beta_arg(arg[iarg + 3], lmp);
+      wall_friction[face] = 1;
+      iarg += 4;
+    } else if (strcmp(kw, "friction/guard") == 0) {
+      need(1, kw);
+      if (strcmp(arg[iarg + 1], "elastic") == 0)
+        friction_guard = 1;
+      else if (strcmp(arg[iarg + 1], "none") == 0)
+        friction_guard = 0;
+      else
+        error->all(FLERR, "Fix hardsphere: friction/guard must be elastic or none, got {}",
+                   arg[iarg + 1]);
+      iarg += 2;
+    } else if (strcmp(kw, "disc") == 0) {
+      disc_user = 1;
+      iarg += 1;
     } else if (strcmp(kw, "order") == 0) {
       need(1, kw);
       if (strcmp(arg[iarg + 1], "parallel") == 0)
@@ -296,6 +386,34 @@ void FixHardSphere::parse(int narg, char **arg)
         epair[(size_t) i * (ntypes + 1) + j] = p.e;
         epair[(size_t) j * (ntypes + 1) + i] = p.e;
       }
+
+  fpair.assign((size_t) 2 * (ntypes + 1) * (ntypes + 1), 0.0);
+  for (size_t k = 0; k < fpair.size(); k += 2) {
+    fpair[k] = muglobal;
+    fpair[k + 1] = betaglobal;
+  }
+  for (size_t q = 0; q < fpairs.size(); ++q)
+    for (int i = fpairs[q].ilo; i <= fpairs[q].ihi; ++i)
+      for (int j = fpairs[q].jlo; j <= fpairs[q].jhi; ++j)
+        for (size_t at : {(size_t) i * (ntypes + 1) + j, (size_t) j * (ntypes + 1) + i}) {
+          fpair[2 * at] = fpairs[q].e;
+          fpair[2 * at + 1] = fbeta[q];
+        }
+  friction_on = 0;
+  for (int i = 1; i <= ntypes; ++i)
+    for (int j = 1; j <= ntypes; ++j)
+      if (fpair[2 * ((size_t) i * (ntypes + 1) + j)] > 0.0) friction_on = 1;
+  for (int f = 0; f < HSGPU::Collide::NFACES; ++f) {
+    if (wall_friction[f] && !walls.on[f])
+      error->all(FLERR, "Fix hardsphere: wall/friction {} needs a wall on that face (keyword wall)",
+                 FACES[f]);
+    if (walls.mu[f] > 0.0) friction_on = 1;
+  }
+  if (disc_user && domain->dimension != 2)
+    error->all(FLERR, "Fix hardsphere: disc requires a 2d simulation");
+  if (disc_user && !friction_on)
+    error->all(FLERR, "Fix hardsphere: disc sets the moment of inertia of friction; no friction "
+                      "(friction, friction/pair or wall/friction with mu > 0) is set");
 }
 
 int FixHardSphere::setmask()
@@ -319,7 +437,8 @@ void FixHardSphere::init()
   if (neighbor->every != 1 || neighbor->delay != 0)
     error->all(FLERR, "Fix hardsphere requires 'neigh_modify every 1 delay 0' (it relies on "
                       "the neighbor list covering every step's moves)");
-  if ((bigint) epair.size() != (bigint) (atom->ntypes + 1) * (atom->ntypes + 1))
+  if ((bigint) epair.size() != (bigint) (atom->ntypes + 1) * (atom->ntypes + 1) ||
+      (bigint) fpair.size() != (bigint) 2 * (atom->ntypes + 1) * (atom->ntypes + 1))
     error->all(FLERR, "Fix hardsphere: the number of atom types changed; define the fix again");
   // Fixes that change radius, mass or type of atoms in place (fix adapt and adapt/fep on any
   // step; atom/swap, mol/swap and sgcmc swap types): those arrays go to the device every step.
@@ -340,6 +459,20 @@ void FixHardSphere::init()
                "the timestep)",
                update->dt);
   check_other_fixes();
+
+  // Friction turns spin into translation through the moment of inertia k m r^2: k follows the
+  // integrator that moves these atoms' omega (fix nve/sphere and the nvt, npt, nph/sphere
+  // styles: 0.4, or 0.5 with their 'disc'), or 'disc' here where none of those is defined.
+  inertia = 0.4;
+  if (friction_on) {
+    const double k = integrator_inertia();
+    if (disc_user && k > 0.0 && k != 0.5)
+      error->all(FLERR,
+                 "Fix hardsphere: 'disc' (moment of inertia 0.5 m r^2) but the integrator of its "
+                 "atoms uses {} m r^2 (add 'disc' to the integrator, or remove it here)",
+                 k);
+    inertia = disc_user ? 0.5 : (k > 0.0 ? k : 0.4);
+  }
 
   for (int f = 0; f < HSGPU::Collide::NFACES; ++f) {
     if (!walls.on[f]) continue;
@@ -437,6 +570,38 @@ void FixHardSphere::check_other_fixes()
                  least != MAXTAGINT ? fmt::format("atom {}", least)
                                     : std::string("the same group"));
   }
+}
+
+/* The moment-of-inertia factor of the sphere integrators (nve/sphere, nvt/sphere, npt/sphere,
+   nph/sphere and their accelerated variants, which derive from them) that act on atoms of the
+   group, or -1 where none does.  Two that disagree stop with an error. */
+double FixHardSphere::integrator_inertia()
+{
+  double k = -1.0;
+  const char *by = nullptr;
+  for (int f = 0; f < modify->nfix; ++f) {
+    Fix *other = modify->fix[f];
+    double kf;
+    if (utils::strmatch(other->style, "^nve/sphere"))
+      kf = NVESpherePeek::inertia_of(other);
+    else if (utils::strmatch(other->style, "^n[pv][ht]/sphere"))
+      kf = NHSpherePeek::inertia_of(other);
+    else
+      continue;
+    int mine = 0, any = 0;
+    for (int i = 0; i < atom->nlocal && !mine; ++i)
+      if ((atom->mask[i] & groupbit) && (atom->mask[i] & other->groupbit)) mine = 1;
+    MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, world);
+    if (!any && other->igroup != igroup && other->igroup != 0) continue;
+    if (k > 0.0 && kf != k)
+      error->all(FLERR,
+                 "Fix hardsphere: the integrators {} and {} of its atoms use different moments "
+                 "of inertia ({} and {} m r^2); friction needs one",
+                 by, other->id, k, kf);
+    k = kf;
+    by = other->id;
+  }
+  return k;
 }
 
 /* The largest radius of the atoms that fix pour or fix deposit will insert into the group

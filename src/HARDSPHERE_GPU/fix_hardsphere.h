@@ -74,6 +74,13 @@ class FixHardSphere : public Fix {
   int gpu_requested;        // gpu yes: the CUDA collision backend where a device is usable
   int device_request;       // CUDA device to use, < 0: auto (node-local rank)
   int backend_device;       // device of the current backend, -1: the CPU backend
+  // Rough spheres: friction mu and tangential restitution beta0 of type pairs, 2 per pair
+  // ((ntypes + 1)^2 pairs); walls.mu and walls.beta for the walls.
+  std::vector<double> fpair;
+  int friction_on;            // 1: some pair or wall has mu > 0 (else smooth spheres)
+  int disc_user;              // 1: 'disc' given (moment of inertia 0.5 m r^2)
+  int friction_guard;         // 1: guarded collisions are tangentially elastic too
+  double inertia;             // moment of inertia / (m r^2) of this run (init())
 
   // --- derived in init() ----------------------------------------------------------------
   double rmax;           // largest radius in the group
@@ -197,6 +204,7 @@ class FixHardSphere : public Fix {
   void parse(int narg, char **arg);
   void check_other_fixes();
   double inserted_radius();
+  double integrator_inertia();
   double current_tc() const;
   HSGPU::Collide::Params step_params() const;
   void forward_state(double drift_dt);

@@ -67,7 +67,7 @@ constexpr double OVERLAP_TOL = 1e-9;    // pairs closer than (1 - tol) x contact
 // overlap push moves a pair to this much beyond contact (relative): a margin well above the
 // overlap criterion lets the relaxation end in a few passes rather than creep up to it.
 constexpr double PUSH_MARGIN = 1e-6;
-constexpr int NSTATE = 15;    // doubles per body in the boundary exchange
+constexpr int NSTATE = 15;    // doubles per body in the boundary exchange (3 more with friction)
 
 // Lexicographic order of overlap reports: lower atom ID first, walls (negative) first.
 bool before(double a1, double b1, double a2, double b2)
@@ -91,6 +91,12 @@ Params FixHardSphere::step_params() const
   p.ntypes = atom->ntypes;
   p.epair = epair.data();
   p.maxevents = (long) maxevents;
+  p.friction = 0;
+  if (friction_on)
+    p.friction =
+        friction_guard ? HSGPU::Collide::FRICTION_GUARDED : HSGPU::Collide::FRICTION_WALTON;
+  p.inertia = inertia;
+  p.fpair = fpair.data();
   return p;
 }
 
@@ -313,6 +319,8 @@ bool FixHardSphere::gather_bodies(double drift_dt)
     Body &b = bodies[body_of[i]];
     b = HSGPU::Collide::start_body(x[i], v[i], f[i], radius[i], rmass[i], tlast[i], (long) tag[i],
                                    type[i], i, drift_dt, ftm2v);
+    if (friction_on)
+      for (int d = 0; d < 3; ++d) b.omega[d] = atom->omega[i][d];
     for (int fc = 0; fc < HSGPU::Collide::NFACES; ++fc)
       if (walls.on[fc]) {
         const int d = fc / 2;
@@ -703,6 +711,7 @@ void FixHardSphere::gather_boundary()
   const int nb = (int) bodies.size();
   const int periodic[3] = {domain->xperiodic, domain->yperiodic, domain->zperiodic};
   const double *prd = domain->prd;
+  const int nstate = NSTATE + (friction_on ? 3 : 0);    // the spin follows the fixed head
 
   // Partners with a higher ID, per boundary body.
   std::vector<int> pstart(nb + 1, 0);
@@ -729,6 +738,7 @@ void FixHardSphere::gather_boundary()
         s.v[0],        s.v[1],          s.v[2],  s.a[0],  s.a[1],
         s.a[2],        s.radius,        s.mass,  s.tlast, (double) (pstart[b + 1] - pstart[b])};
     send.insert(send.end(), head, head + NSTATE);
+    if (friction_on) send.insert(send.end(), s.omega, s.omega + 3);
     send.insert(send.end(), partners.begin() + pstart[b], partners.begin() + pstart[b + 1]);
     mine_sent.push_back(b);
   }
@@ -747,7 +757,7 @@ void FixHardSphere::gather_boundary()
   std::vector<std::pair<double, bigint>> order;    // (ID, offset)
   for (bigint off = 0; off < total;) {
     order.emplace_back(recv[off], off);
-    off += NSTATE + (bigint) recv[off + NSTATE - 1];
+    off += nstate + (bigint) recv[off + NSTATE - 1];
   }
   std::sort(order.begin(), order.end());
   const int ng = (int) order.size();
@@ -769,6 +779,8 @@ void FixHardSphere::gather_boundary()
     b.radius = h[11];
     b.mass = h[12];
     b.tlast = h[13];
+    if (friction_on)
+      for (int d = 0; d < 3; ++d) b.omega[d] = h[NSTATE + d];
     b.owner = -1;
     ids[k] = h[0];
   }
@@ -779,14 +791,14 @@ void FixHardSphere::gather_boundary()
       const double id = recv[off];
       const int k = (int) (std::lower_bound(ids.begin(), ids.end(), id) - ids.begin());
       gmine[k] = b;
-      off += NSTATE + (bigint) recv[off + NSTATE - 1];
+      off += nstate + (bigint) recv[off + NSTATE - 1];
     }
   }
   for (int k = 0; k < ng; ++k) {
     const double *h = &recv[order[k].second];
     const int np = (int) h[NSTATE - 1];
     for (int q = 0; q < np; ++q) {
-      const double pid = h[NSTATE + q];
+      const double pid = h[nstate + q];
       const auto it = std::lower_bound(ids.begin(), ids.end(), pid);
       if (it == ids.end() || *it != pid)
         error->one(FLERR, "Fix hardsphere: internal error: partner {} of atom {} was not sent",
@@ -887,6 +899,8 @@ void FixHardSphere::apply_results(double dt, bool in_bodies)
         x[i][d] = xe[d];
         v[i][d] = ve[d];
       }
+      if (friction_on)
+        for (int d = 0; d < 3; ++d) atom->omega[i][d] = b.omega[d];
     }
     tlast[i] = std::max(b.tlast - dt, NEVER_COLLIDED);
   };
@@ -1135,6 +1149,7 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
       a.reach = reach;
       a.never = NEVER_COLLIDED;
       a.same_atoms = same;
+      a.omega = (friction_on && a.n) ? atom->omega[0] : nullptr;    // rough spheres
       resident->run_atoms(a, box, step_params(), wsettings, mine, report);
       // The budget's checks, and bound_floor for the host should the device decline.
       check_budget(report.vmax2, report.amax, report.rmax);

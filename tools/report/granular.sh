@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # Report section "granular" (issue 11, section 2, item 2): fix hardsphere against LAMMPS's
 # GRANULAR styles (pair gran/hooke, pair granular with coeff_restitution damping, fix wall/gran)
-# in five scenes: a head-on pair, a ball bouncing on a floor, the falling column of
-# examples/benchmarks/in.column to t = 1, the same column settled (t = 10 ... 30) and a dense
-# elastic fluid.  Error against wall time, one marker series per method.
+# in six scenes: a head-on pair, a ball bouncing on a floor, the falling column of
+# examples/benchmarks/in.column to t = 1, the same column settled (t = 10 ... 30), a dense
+# elastic fluid, and (issue 15) a collapsing column of rough spheres, whose deposit's slope is
+# compared with gran/hooke/history at the same friction coefficient (in.granular_repose).
+# Error against wall time, one marker series per method.
 #   bash tools/report/granular.sh <quick|full>     (run by tools/report.sh, which sets HSGPU_REPORT_*)
 # Writes $HSGPU_REPORT_DIR/granular.md, granular_*.png and granular_*.csv; the LAMMPS logs and
 # generated inputs go to $HSGPU_REPORT_BUILD/report/granular/.
@@ -11,7 +13,8 @@
 # development machine; full: all five scenes and all settings, the column with three more
 # velocity seeds: about 35 minutes there, shared with other jobs (the settled column's fix
 # hardsphere runs, about 6 events per sphere per step, take most of it).
-# HSGPU_REPORT_GRANULAR_SCENES=pair,bounce,column,settled,fluid picks scenes (for development).
+# HSGPU_REPORT_GRANULAR_SCENES=pair,bounce,column,settled,fluid,repose picks scenes (for
+# development; repose alone: 25 s).
 # A LAMMPS error, a missing result or a value that is not finite makes it exit non-zero before
 # the page is written.
 set -euo pipefail

@@ -307,6 +307,7 @@ inline std::string body_diff(const Body &x, const Body &y)
   dbl("exc2", &x.exc2, &y.exc2, 1);
   dbl("w0", x.w0, y.w0, 3);
   dbl("wexc2", &x.wexc2, &y.wexc2, 1);
+  dbl("omega", x.omega, y.omega, 3);
   num("id", x.id, y.id);
   num("last", x.last, y.last);
   num("type", x.type, y.type);

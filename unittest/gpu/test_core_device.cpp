@@ -31,8 +31,13 @@ namespace {
 
 constexpr int NCASES = 480;
 constexpr int NKINDS = 8;
-const std::vector<double> EPAIR = {0.0, 0.0, 0.0, 0.0, 0.8, 0.7, 0.0, 0.7, 0.95};
 constexpr int NTYPES = 2;
+// The restitution table ((NTYPES + 1)^2) followed by the friction table (mu, beta0 per type
+// pair): core_tables_size(NTYPES) values.  Type pair 1-1 slides easily (mu 0.1), 1-2 sticks
+// with a negative beta0, 2-2 is smooth (mu 0).
+const std::vector<double> TABLES = {0.0, 0.0, 0.0, 0.0, 0.8, 0.7, 0.0, 0.7, 0.95,
+                                    0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.1, 0.3,
+                                    0.8, -0.2, 0.0, 0.0, 0.8, -0.2, 0.0, 0.0};
 
 struct Gen {
   std::mt19937_64 rng;
@@ -85,6 +90,8 @@ Body random_body(Gen &g, long id, const Params &p, double gz)
   b.type = g.i(1, NTYPES);
   b.nevents = g.i(0, 4);
   b.owner = (int) id;
+  if (g.coin(0.7))
+    for (int d = 0; d < 3; ++d) b.omega[d] = 3.0 * g.n();
   return b;
 }
 
@@ -140,7 +147,13 @@ CoreCase make_case(Gen &g, int k)
     p.walls.on[f] = g.coin(0.4);
     p.walls.pos[f] = (f & 1) ? 10.0 : 0.0;
     p.walls.e[f] = g.coin() ? 0.9 : g.u(0.0, 1.0);
+    p.walls.mu[f] = g.coin(0.3) ? 0.0 : g.u(0.0, 0.8);
+    p.walls.beta[f] = g.u(-1.0, 1.0);
   }
+  // Rough spheres in about half the cases, both guard modes, spheres and discs.
+  p.friction = g.coin(0.5) ? 0 : (g.coin() ? FRICTION_WALTON : FRICTION_GUARDED);
+  p.inertia = g.coin(0.7) ? 0.4 : 0.5;
+  p.fpair = nullptr;
   p.epair = nullptr;
   p.maxevents = 1000;
   const double gz = g.coin(0.6) ? 9.81 : 0.0;
@@ -309,7 +322,7 @@ std::vector<CoreResult> on_host(const std::vector<CoreCase> &cases)
 {
   std::vector<CoreResult> out(cases.size());
   for (size_t k = 0; k < cases.size(); ++k) {
-    HSGPU::GPU::evaluate_core_case(cases[k], EPAIR.data(), NTYPES, out[k]);
+    HSGPU::GPU::evaluate_core_case(cases[k], TABLES.data(), NTYPES, out[k]);
   }
   return out;
 }
@@ -391,6 +404,7 @@ void expect_coverage(const std::vector<CoreCase> &cases, const std::vector<CoreR
   int pair_event = 0, pair_never_mutual = 0, pair_impulse = 0, pair_degenerate = 0;
   int wall_event = 0, rested = 0, bounced = 0, image_shift = 0, half_box = 0;
   int ab = 0, ba = 0, tie = 0, elastic_guard = 0;
+  int rough_pair = 0, rough_wall = 0, smooth_spun = 0;    // friction changed a spin
   for (size_t k = 0; k < r.size(); ++k) {
     const CoreCase &c = cases[k];
     const CoreResult &o = r[k];
@@ -426,6 +440,11 @@ void expect_coverage(const std::vector<CoreCase> &cases, const std::vector<CoreR
     ba += o.earlier_ba;
     if (!o.earlier_ab && !o.earlier_ba) ++tie;
     if (o.effective_restitution == 1.0 && c.e != 1.0) ++elastic_guard;
+    const bool pair_spun = std::memcmp(o.pair_i.omega, c.bi.omega, sizeof(c.bi.omega)) != 0;
+    const bool wall_spun = std::memcmp(o.wall_b.omega, c.bi.omega, sizeof(c.bi.omega)) != 0;
+    if (c.p.friction && pair_spun) ++rough_pair;
+    if (c.p.friction && wall_spun) ++rough_wall;
+    if (!c.p.friction && (pair_spun || wall_spun)) ++smooth_spun;
   }
   const int need = 10;
   EXPECT_GE(contact_finite, need);
@@ -448,6 +467,9 @@ void expect_coverage(const std::vector<CoreCase> &cases, const std::vector<CoreR
   EXPECT_GE(ba, need);
   EXPECT_GE(tie, need);
   EXPECT_GE(elastic_guard, need);
+  EXPECT_GE(rough_pair, need) << "pair collisions with friction";
+  EXPECT_GE(rough_wall, need) << "wall collisions with friction";
+  EXPECT_EQ(smooth_spun, 0) << "smooth spheres never change their spin";
   std::printf("[ info     ] %zu cases: pair contact finite/zero/never %d/%d/%d (%d grazing), "
               "wall contact %d/%d/%d, pair events %d (%d impulses, %d degenerate), wall events "
               "%d (%d rests), %d nonzero image shifts (%d at half a box)\n",
@@ -466,7 +488,7 @@ TEST(CoreDevice, DeviceGivesHostBits)
                     "device comparison is not run";
 
   std::vector<CoreResult> dev(cases.size());
-  HSGPU::GPU::run_core_cases_on_device(0, cases.data(), (int) cases.size(), EPAIR.data(), NTYPES,
+  HSGPU::GPU::run_core_cases_on_device(0, cases.data(), (int) cases.size(), TABLES.data(), NTYPES,
                                        dev.data());
   Comparer c{host, dev};
 #define HSGPU_FIELD(f) c.field(#f, &CoreResult::f)

@@ -153,6 +153,13 @@ double total_energy(Lammps &lmp, const Scene &s)
   for (size_t i = 0; i < m.size(); ++i)
     ke += 0.5 * m[i] *
           (v[3 * i] * v[3 * i] + v[3 * i + 1] * v[3 * i + 1] + v[3 * i + 2] * v[3 * i + 2]);
+  if (s.rough) {
+    // Rotation of solid spheres (0.4 m r^2), which friction exchanges with translation.
+    const auto w = lmp.gather("omega", 3), r = lmp.gather("radius", 1);
+    for (size_t i = 0; i < m.size(); ++i)
+      ke += 0.5 * 0.4 * m[i] * r[i] * r[i] *
+            (w[3 * i] * w[3 * i] + w[3 * i + 1] * w[3 * i + 1] + w[3 * i + 2] * w[3 * i + 2]);
+  }
   if (s.g != 0.0) {
     double lo[3], hi[3];
     int per[3];
@@ -294,6 +301,20 @@ Scene pour(double e, bool long_size)
   s.steps = std::lround(75.0 / dt);
   s.chunk = long_size ? 500 : s.steps / 10;
   s.pour = true;
+  return s;
+}
+
+Scene rough_pour(double e, double mu, bool long_size, bool guard)
+{
+  Scene s = pour(e, long_size);
+  s.name = line("rough pour, e = %g, mu = %g, to t = 75", e, mu) +
+           (guard ? "" : ", friction/guard none");
+  s.fixes =
+      dynamics(line("restitution %g wall zlo %g wall zhi %g friction %g 0.3 ", e, e, e, mu) +
+                   line("wall/friction zlo %g 0.3", mu) + (guard ? "" : " friction/guard none"),
+               long_size ? 0.01 : 0.02);
+  s.fixes.push_back("fix g all gravity 1.0 vector 0 0 -1");
+  s.rough = true;
   return s;
 }
 

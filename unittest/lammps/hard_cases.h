@@ -49,6 +49,8 @@ struct Scene {
   long steps = 0;       // steps of the run (a long run goes on in chunks to target_events())
   long chunk = 100;     // steps between the checks
   bool pour = false;    // report events per sphere per step
+  // Friction: the energy balance includes the spheres' rotation.
+  bool rough = false;
   std::function<void(long chunk, std::vector<double> &x, std::vector<double> &v)> place;
   std::function<std::string(long chunk, const std::vector<double> &x, const std::vector<double> &v,
                             double collisions)>
@@ -84,6 +86,9 @@ void print_row(const Scene &s, const Result &r);
 // A block of spheres poured onto the floor under g = 1 with restitution e (pairs and walls),
 // run to t = 75.
 Scene pour(double e, bool long_size);
+// The same pour with friction mu and tangential restitution 0.3 between the spheres and on
+// the floor (issue 15); guard false: friction/guard none.
+Scene rough_pour(double e, double mu, bool long_size, bool guard = true);
 // Elastic spheres of diameter 1 on an fcc or sc lattice at packing fraction phi, T = 1.
 Scene crystal(const char *style, double phi, bool long_size);
 // Diameters 1 and 10 (the big ones dropped onto a bed of small ones) under gravity, e = 0.9.

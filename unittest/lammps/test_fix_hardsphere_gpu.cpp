@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -19,10 +20,12 @@ namespace {
 
 struct Result {
   std::vector<double> x, v;
+  std::vector<double> omega;    // rough spheres only
   std::vector<double> f;    // f_hs[1] .. f_hs[21]
 };
 
-Result run(const std::vector<std::string> &setup, const std::string &fix, const std::string &run)
+Result run(const std::vector<std::string> &setup, const std::string &fix, const std::string &run,
+           bool spin = false)
 {
   Lammps lmp;
   lmp.commands(setup);
@@ -30,6 +33,7 @@ Result run(const std::vector<std::string> &setup, const std::string &fix, const 
   Result r;
   r.x = lmp.gather("x", 3);
   r.v = lmp.gather("v", 3);
+  if (spin) r.omega = lmp.gather("omega", 3);
   for (int i = 0; i < 21; ++i) r.f.push_back(lmp.fix_vector("hs", i));
   return r;
 }
@@ -42,11 +46,18 @@ double max_abs_diff(const std::vector<double> &a, const std::vector<double> &b)
 }
 
 void expect_gpu_equals_cpu(const char *name, const std::vector<std::string> &setup,
-                           const std::string &fix, const std::string &steps, double min_coll)
+                           const std::string &fix, const std::string &steps, double min_coll,
+                           bool spin = false)
 {
   if (HSGPU::GPU::device_count() == 0) GTEST_SKIP() << "no CUDA device on this machine";
-  const Result cpu = run(setup, fix, steps);
-  const Result gpu = run(setup, fix + " gpu yes", steps);
+  const Result cpu = run(setup, fix, steps, spin);
+  const Result gpu = run(setup, fix + " gpu yes", steps, spin);
+  if (spin) {
+    EXPECT_EQ(max_abs_diff(cpu.omega, gpu.omega), 0.0) << name << ": angular velocities";
+    double spin_max = 0.0;
+    for (double w : cpu.omega) spin_max = std::max(spin_max, std::fabs(w));
+    EXPECT_GT(spin_max, 0.0) << name << ": friction set the spheres spinning";
+  }
   EXPECT_EQ(cpu.f[16], -1.0) << "the CPU run used the CPU backend";
   EXPECT_GE(gpu.f[16], 0.0) << "the GPU run used a CUDA device";
   ASSERT_EQ(cpu.x.size(), gpu.x.size());
@@ -158,6 +169,28 @@ TEST(FixHardSphereGpu, PouredInelasticPileEqualsCpu)
                         "fix hs all hardsphere restitution 0.6 restitution/pair 1 2 0.5 "
                         "wall zlo 0.5 wall zhi 0.5",
                         "run 600", 10000);
+}
+
+// The same pile with rough spheres (friction between them and with the floor, both guard
+// modes): Walton's rule on the device, the angular velocities up and back.
+TEST(FixHardSphereGpu, RoughPouredPileEqualsCpu)
+{
+  std::vector<std::string> s = SPHERES;
+  s.insert(s.end(), {"region box block 0 9.6 0 9.6 0 30 units box", "create_box 2 box",
+                     "lattice sc 0.5787037037037037 origin 0.5 0.5 0.5",    // spacing 1.2
+                     "region block block 0 9.6 0 9.6 4 16 units box", "create_atoms 1 region block",
+                     "set type 1 type/fraction 2 0.4 20261121", "set type 1 diameter 1.0",
+                     "set type 2 diameter 0.8", "set group all density 1.9",
+                     "velocity all create 0.05 4928459 loop geom", "comm_modify vel yes",
+                     "neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere",
+                     "fix g all gravity 1.0 vector 0 0 -1", "timestep 0.01"});
+  for (const char *guard : {"elastic", "none"})
+    expect_gpu_equals_cpu(guard, s,
+                          std::string("fix hs all hardsphere restitution 0.6 restitution/pair 1 2 "
+                                      "0.5 friction 0.5 0.2 friction/pair 1 2 0.3 -0.1 wall zlo "
+                                      "0.5 wall zhi 0.5 wall/friction zlo 0.4 0.0 friction/guard ") +
+                              guard,
+                          "run 400", 5000, true);
 }
 
 // Continuous polydispersity (diameters 0.5 ... 1.5, masses with the volume) under gravity.

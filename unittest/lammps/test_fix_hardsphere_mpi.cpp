@@ -21,7 +21,7 @@ using ::testing::HasSubstr;
 namespace {
 
 struct Snapshot {
-  std::vector<double> x, v;
+  std::vector<double> x, v, w;
   double f[6];
   double press;
   double sred[6], pvir[6], wsum[3];    // per-atom virial: sums, -V x the global one, weighted
@@ -89,6 +89,7 @@ Snapshot run_on(MPI_Comm comm, const std::string &order, int steps, bool pair_gr
   }
   s.x = lmp.gather("x", 3);
   s.v = lmp.gather("v", 3);
+  s.w = lmp.gather("omega", 3);
   for (int i = 0; i < 6; ++i) s.f[i] = lmp.fix_vector("hs", i);
   for (int i = 0; i < 3; ++i) s.comm[i] = lmp.fix_vector("hs", 23 + i);
   s.press = lmp.compute_scalar("p");
@@ -116,6 +117,7 @@ void compare(const std::string &world_order, const std::string &single_order,
     const double dx = max_abs_diff(world.x, single.x), dv = max_abs_diff(world.v, single.v);
     EXPECT_EQ(dx, 0.0);    // bitwise: fix gravity's forces do not depend on the ranks
     EXPECT_EQ(dv, 0.0);
+    EXPECT_EQ(max_abs_diff(world.w, single.w), 0.0) << "spins";
     EXPECT_EQ(world.f[1], single.f[1]) << "collisions in total";
     EXPECT_EQ(world.f[2], single.f[2]) << "wall collisions";
     EXPECT_EQ(world.f[4], single.f[4]) << "most events in a step";
@@ -196,6 +198,17 @@ TEST(FixHardSphereMPI, CudaBackendOnAllRanksAgreesWithSingleRankSerial)
 {
   if (HSGPU::GPU::device_count() == 0) GTEST_SKIP() << "no CUDA device on this machine";
   compare("parallel gpu yes", "serial");
+}
+
+// Issue 15: rough spheres (friction between the types and on the floor): the spins travel with
+// the groups gathered across ranks, and every rank count and order gives one rank's bits.
+TEST(FixHardSphereMPI, FrictionAgreesWithSingleRankInBothOrders)
+{
+  const std::string rough =
+      " friction 0.5 0.3 friction/pair 1 2 0.3 0.0 wall/friction zlo 0.6 0.2 wall/friction zhi "
+      "0.2 -0.5";
+  compare("parallel" + rough, "parallel" + rough);
+  compare("serial" + rough, "parallel windows 3" + rough);
 }
 
 TEST(FixHardSphereMPI, SerialOrderOnAllRanksAgreesWithParallelOnOne)

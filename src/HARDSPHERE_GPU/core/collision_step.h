@@ -31,6 +31,7 @@
 #ifndef HSGPU_CORE_COLLISION_STEP_H
 #define HSGPU_CORE_COLLISION_STEP_H
 
+#include "friction.h"
 #include "impulse.h"
 #include "trajectory.h"
 
@@ -56,6 +57,15 @@ namespace Collide {
   /// at larger timesteps, so that their bias does not grow with dt (a falling column at
   /// dt = 0.1 with g = 1, d = 0.9 would otherwise make collisions below 1.5 elastic).
   constexpr double SPEED_TC_CAP = 0.005;
+
+  /// Params::friction: rough spheres whose collisions the guards make elastic (TC model,
+  /// elastic threshold: e1 = 1 where e < 1) are elastic in their tangential part too, the
+  /// perfectly rough elastic impulse (friction/guard elastic, the default); or Walton's rule
+  /// in every collision (friction/guard none).  Measured in doc/fix_hardsphere.md: with
+  /// Walton's rule in the guarded collisions friction drains the agitation that the elastic
+  /// threshold keeps in a settled pile, and its cost grows twentyfold.
+  constexpr int FRICTION_GUARDED = 1;
+  constexpr int FRICTION_WALTON = 2;
 
   /// The TC time the speed thresholds use: tc, capped at SPEED_TC_CAP sqrt(d / amax).
   HSGPU_HD double speed_tc(double tc, double amax, double d)
@@ -135,7 +145,39 @@ namespace Collide {
     if (J < Jstop) J = Jstop;
     Impulse::apply_pair_impulse(bi.v, bj.v, n, J, bi.mass, bj.mass);
     tally.ke_lost -= Impulse::energy_change(J, ut, meff);
-    const double dp[3] = {J * n[0], J * n[1], J * n[2]};
+    double dp[3] = {J * n[0], J * n[1], J * n[2]};
+    if (p.friction) {
+      const double *fr = p.fpair + 2 * (bi.type * (p.ntypes + 1) + bj.type);
+      if (fr[0] > 0.0) {
+        // Walton's rule (friction.h) on the true velocities at t; the normal impulse J above
+        // changed only the normal part of the contact velocity.
+        double g[3], c[3], ws[3], gt[3], P[3], dw[3];
+        const double h = t - 0.5 * p.dt;
+        for (int d = 0; d < 3; ++d) ws[d] = bi.radius * bi.omega[d] + bj.radius * bj.omega[d];
+        Friction::cross3(ws, n, c);
+        for (int d = 0; d < 3; ++d) g[d] = (bi.v[d] - bj.v[d]) + (bi.a[d] - bj.a[d]) * h - c[d];
+        const double k = p.inertia;
+        const double cm = 1.0 / bi.mass + 1.0 / bj.mass +
+                          Friction::rotational_compliance(k, bi.mass, bi.radius) +
+                          Friction::rotational_compliance(k, bj.mass, bj.radius);
+        const double mt = 1.0 / cm;
+        // A collision that the guards made elastic (e1 = 1 for e0 < 1) is elastic in its
+        // tangential part too, with friction/guard elastic (p.friction == 1).
+        const int elastic = p.friction == FRICTION_GUARDED && e1 != e0;
+        Friction::tangential_impulse(g, n, J, mt, fr[0], fr[1], elastic, gt, P);
+        for (int d = 0; d < 3; ++d) {
+          bi.v[d] += P[d] / bi.mass;
+          bj.v[d] -= P[d] / bj.mass;
+        }
+        // Both contact points lie at -r n from their centres (j's impulse is -P at +r_j n).
+        Friction::spin_change(n, P, k, bi.mass, bi.radius, dw);
+        for (int d = 0; d < 3; ++d) bi.omega[d] += dw[d];
+        Friction::spin_change(n, P, k, bj.mass, bj.radius, dw);
+        for (int d = 0; d < 3; ++d) bj.omega[d] += dw[d];
+        tally.ke_lost -= Friction::energy_change(P, gt, mt);
+        for (int d = 0; d < 3; ++d) dp[d] += P[d];
+      }
+    }
     tally.virial[0] += r[0] * dp[0];
     tally.virial[1] += r[1] * dp[1];
     tally.virial[2] += r[2] * dp[2];
@@ -152,6 +194,49 @@ namespace Collide {
     }
     tally.pair++;
     bi.tlast = bj.tlast = t;
+  }
+
+  /// Walton's rule (friction.h) at a wall collision of body b with face f (dimension d, sign s)
+  /// at time t whose normal impulse was Jn >= 0, the centre at distance h from the wall: the
+  /// wall has infinite mass and no spin.  elastic: the guards made the bounce elastic.
+  /// (Components are picked without runtime indices, as in process_wall.)
+  HSGPU_HD void rough_wall(Body &b, int d, double s, double t, double Jn, double h, int f,
+                           int elastic, const Params &p, Tally &tally, double *wb)
+  {
+    const double n[3] = {d == 0 ? s : 0.0, d == 1 ? s : 0.0, d == 2 ? s : 0.0};
+    const double tt = t - 0.5 * p.dt;
+    double c[3], g[3], gt[3], P[3], dw[3], rw[3];
+    for (int k = 0; k < 3; ++k) rw[k] = b.radius * b.omega[k];
+    Friction::cross3(rw, n, c);
+    for (int k = 0; k < 3; ++k) g[k] = b.v[k] + b.a[k] * tt - c[k];
+    const double kI = p.inertia;
+    const double mt = 1.0 / (1.0 / b.mass + Friction::rotational_compliance(kI, b.mass, b.radius));
+    Friction::tangential_impulse(g, n, Jn, mt, p.walls.mu[f], p.walls.beta[f], elastic, gt, P);
+    // P is normal to n up to round-off: the normal velocity stays the one just set.
+    P[0] = d == 0 ? 0.0 : P[0];
+    P[1] = d == 1 ? 0.0 : P[1];
+    P[2] = d == 2 ? 0.0 : P[2];
+    for (int k = 0; k < 3; ++k) b.v[k] += P[k] / b.mass;
+    // The impulse moves the body along the other dimensions: a wall it rests on there (a
+    // sphere in a corner, on the floor against a side wall) must be tested again, or it
+    // could be driven into it unseen.
+    for (int k = 0; k < 3; ++k)
+      if (k != d && P[k] != 0.0) b.rest[k] = -1;
+    Friction::spin_change(n, P, kI, b.mass, b.radius, dw);
+    for (int k = 0; k < 3; ++k) b.omega[k] += dw[k];
+    tally.ke_lost -= Friction::energy_change(P, gt, mt);
+    // Virial r_a dP_b (a < b), r = h along d, as a pair's off-diagonal terms.
+    const double w3 = d == 0 ? h * P[1] : 0.0;
+    const double w4 = d == 0 ? h * P[2] : 0.0;
+    const double w5 = d == 1 ? h * P[2] : 0.0;
+    tally.virial[3] += w3;
+    tally.virial[4] += w4;
+    tally.virial[5] += w5;
+    if (wb) {
+      wb[3] += w3;
+      wb[4] += w4;
+      wb[5] += w5;
+    }
   }
 
   /// Collision of body b with wall face f at time t.  wb: the body's per-atom virial
@@ -204,6 +289,13 @@ namespace Collide {
     tally.virial[1] = d == 1 ? tally.virial[1] + w : tally.virial[1];
     tally.virial[2] = d == 2 ? tally.virial[2] + w : tally.virial[2];
     if (wb) wb[d] += w;
+    if (p.friction && p.walls.mu[f] > 0.0) {
+      // A resting contact keeps Walton's rule: it is the Coulomb friction of a sphere that
+      // rolls or slides on the wall (mu |a_n| dt per step at most).
+      const int resting = b.rest[d] == f;
+      const int elastic = p.friction == FRICTION_GUARDED && e1 != p.walls.e[f] && !resting;
+      rough_wall(b, d, s, t, b.mass * (un_out - un), P - p.walls.pos[f], f, elastic, p, tally, wb);
+    }
     tally.wall++;
     b.tlast = t;
   }

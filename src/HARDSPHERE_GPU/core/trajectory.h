@@ -52,6 +52,10 @@ namespace Collide {
                     // face is not tested again until the body's next pair collision
     int nevents;    // events this step (also the version stamp of its event candidates)
     int owner;      // free for the caller (a local atom index)
+    // Angular velocity (friction only; zero and untouched for smooth spheres): the
+    // integrator's half-step value, taken as the true one throughout the step (torques of
+    // other styles are not followed within it).
+    double omega[3];
   };
 
   /// A pair that may touch within the step: bodies i and j (id of i < id of j); the periodic
@@ -66,6 +70,8 @@ namespace Collide {
     int on[NFACES];
     double pos[NFACES];
     double e[NFACES];
+    double mu[NFACES];      // friction (Params::friction only)
+    double beta[NFACES];    // tangential restitution of sticking contacts
   };
 
   /// The step's parameters.
@@ -79,6 +85,14 @@ namespace Collide {
     int ntypes;
     const double *epair;    // restitution of type pair (ti, tj) at ti * (ntypes + 1) + tj
     long maxevents;         // cap on events per step (all calls sharing one Tally)
+    // Rough spheres (friction.h).  friction = 0 (as Params{} sets it): smooth spheres, the
+    // tangential branches are never entered (nor inertia, fpair, walls.mu, walls.beta read).
+    // No default member initializers: Params stays trivial, copied bytewise to the device.
+    int friction;
+    // Moment of inertia / (m r^2).
+    double inertia;
+    // mu and beta0 of type pair (ti, tj) at 2 (ti * (ntypes + 1) + tj) and the next one.
+    const double *fpair;
   };
 
   /// What the events of a step did.

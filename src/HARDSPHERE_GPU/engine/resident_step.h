@@ -91,6 +91,8 @@ namespace Collide {
     const int *type;
     const void *id;    // atom IDs, id_bytes (4 or 8) each
     int id_bytes;
+    double *omega = nullptr;    // 3 per atom: angular velocities (in; out for the atoms that
+                                // had events), rough spheres (Params::friction) only; else null
     double ftm2v;          // acceleration = f ftm2v / rmass
     double bound_floor;    // step bound: min(max(2 |v| dt, bound_floor), reach); negative: the
                            // step's own, half of step_least() of the atoms' maxima (the report's)

@@ -13,7 +13,8 @@ namespace Collide {
 
     /// Relative margin on contact distances for round-off in the join and check tests.
     constexpr double MARGIN = 1e-9;
-    /// Doubles per body in the boundary exchange (pack_body), and per partner (id, shift).
+    /// Doubles per body in the boundary exchange (pack_body; 3 more with friction: the spin),
+    /// and per partner (id, shift).
     constexpr int NBODY = 29;
     constexpr int NPARTNER = 4;
 
@@ -37,7 +38,7 @@ namespace Collide {
       return window_gap(fw, b.w0, ns, s);
     }
 
-    void pack_body(const Body &b, double *o)
+    void pack_body(const Body &b, double *o, bool spin)
     {
       for (int d = 0; d < 3; ++d) {
         o[d] = b.x[d];
@@ -58,9 +59,11 @@ namespace Collide {
       o[26] = b.type;
       o[27] = b.nevents;
       o[28] = b.owner;
+      if (spin)
+        for (int d = 0; d < 3; ++d) o[NBODY + d] = b.omega[d];
     }
 
-    void unpack_body(const double *o, Body &b)
+    void unpack_body(const double *o, Body &b, bool spin)
     {
       for (int d = 0; d < 3; ++d) {
         b.x[d] = o[d];
@@ -81,6 +84,8 @@ namespace Collide {
       b.type = (int) o[26];
       b.nevents = (int) o[27];
       b.owner = (int) o[28];
+      if (spin)
+        for (int d = 0; d < 3; ++d) b.omega[d] = o[NBODY + d];
     }
 
     /// Groups of the union-find forest over nodes [0, n) that contain no flagged root:
@@ -208,6 +213,8 @@ namespace Collide {
                                       long &largest, long &ngroups, long &nbound)
   {
     const int nb = (int) bodies.size();
+    const bool spin = p.friction != 0;
+    const int nbody = spin ? NBODY + 3 : NBODY;
     // Partners with a higher ID of each boundary body: window edges only.
     std::vector<int> pstart(nb + 1, 0);
     for (const Edge &e : wedges)
@@ -235,9 +242,9 @@ namespace Collide {
     for (int b = 0; b < nb; ++b) {
       if (!isb[uf.find(b)]) continue;
       const size_t at = send.size();
-      send.resize(at + NBODY + 1);
-      pack_body(bodies[b], &send[at]);
-      send[at + NBODY] = pstart[b + 1] - pstart[b];
+      send.resize(at + nbody + 1);
+      pack_body(bodies[b], &send[at], spin);
+      send[at + nbody] = pstart[b + 1] - pstart[b];
       send.insert(send.end(), partners.begin() + (size_t) NPARTNER * pstart[b],
                   partners.begin() + (size_t) NPARTNER * pstart[b + 1]);
       sent.push_back(b);
@@ -252,7 +259,7 @@ namespace Collide {
     std::vector<std::pair<long, size_t>> order;
     for (size_t off = 0; off < recv.size();) {
       order.emplace_back((long) recv[off + 24], off);
-      off += NBODY + 1 + (size_t) NPARTNER * (size_t) recv[off + NBODY];
+      off += nbody + 1 + (size_t) NPARTNER * (size_t) recv[off + nbody];
     }
     std::sort(order.begin(), order.end());
     const int ng = (int) order.size();
@@ -260,7 +267,7 @@ namespace Collide {
     gmine.assign(ng, -1);
     std::vector<long> ids(ng);
     for (int k = 0; k < ng; ++k) {
-      unpack_body(&recv[order[k].second], gbodies[k]);
+      unpack_body(&recv[order[k].second], gbodies[k], spin);
       ids[k] = gbodies[k].id;
     }
     {
@@ -269,14 +276,14 @@ namespace Collide {
         const long id = (long) recv[off + 24];
         const int k = (int) (std::lower_bound(ids.begin(), ids.end(), id) - ids.begin());
         gmine[k] = b;
-        off += NBODY + 1 + (size_t) NPARTNER * (size_t) recv[off + NBODY];
+        off += nbody + 1 + (size_t) NPARTNER * (size_t) recv[off + nbody];
       }
     }
     for (int k = 0; k < ng; ++k) {
       const double *h = &recv[order[k].second];
-      const int np = (int) h[NBODY];
+      const int np = (int) h[nbody];
       for (int q = 0; q < np; ++q) {
-        const double *o = h + NBODY + 1 + (size_t) NPARTNER * q;
+        const double *o = h + nbody + 1 + (size_t) NPARTNER * q;
         const auto it = std::lower_bound(ids.begin(), ids.end(), (long) o[0]);
         Edge e;
         e.i = k;

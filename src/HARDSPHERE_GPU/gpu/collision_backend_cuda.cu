@@ -157,7 +157,9 @@ namespace Collide {
       d_gstart.reserve((ng + 1) * sizeof(int), "cudaMalloc(groups)");
       d_gmembers.reserve(nmembers * sizeof(int) + 1, "cudaMalloc(group members)");
       d_tallies.reserve(ng * sizeof(Tally), "cudaMalloc(group tallies)");
-      d_epair.reserve(ne * sizeof(double), "cudaMalloc(restitution table)");
+      // The restitution table, then (rough spheres) the friction table: 2 values per pair.
+      const size_t nf = p.friction ? 2 * ne : 0;
+      d_epair.reserve((ne + nf) * sizeof(double), "cudaMalloc(restitution table)");
       upload_bodies(w);
       cuda_check(cudaMemcpyAsync(d_edges.ptr, w.edges, w.nedges * sizeof(Edge),
                                  cudaMemcpyHostToDevice, stream),
@@ -177,9 +179,14 @@ namespace Collide {
       cuda_check(cudaMemcpyAsync(d_epair.ptr, p.epair, ne * sizeof(double), cudaMemcpyHostToDevice,
                                  stream),
                  "cudaMemcpy(restitution table)");
-      // The kernel's parameters, with the restitution table on the device.
+      if (nf)
+        cuda_check(cudaMemcpyAsync(d_epair.as<double>() + ne, p.fpair, nf * sizeof(double),
+                                   cudaMemcpyHostToDevice, stream),
+                   "cudaMemcpy(friction table)");
+      // The kernel's parameters, with the tables on the device.
       Params dp = p;
       dp.epair = d_epair.as<double>();
+      dp.fpair = nf ? d_epair.as<double>() + ne : nullptr;
 
       // Every group at once, each allowed what the cap leaves before this window.
       const long budget = p.maxevents - events_before;

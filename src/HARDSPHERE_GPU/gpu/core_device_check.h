@@ -20,8 +20,9 @@
 namespace HSGPU {
 namespace GPU {
 
-  /// Inputs of one case.  Every function reads the fields it needs; p.epair is not read (the
-  /// restitution table is passed separately, so that the runner can put it on the device).
+  /// Inputs of one case.  Every function reads the fields it needs; p.epair and p.fpair are not
+  /// read (the restitution and friction tables are passed separately, so that the runner can
+  /// put them on the device).
   struct CoreCase {
     // Contact: relative position and velocity, contact distance s, approach dead zone bmin
     // (pair_contact_time, dot3, dot3_minus_square, two_sum); the wall gap, its rate and its
@@ -82,14 +83,22 @@ namespace GPU {
     int earlier_ab, earlier_ba, earlier_aa;
   };
 
-  /// Calls every host-device core function on the inputs of c with the restitution table epair
-  /// ((ntypes + 1)^2 values) and writes what they give into out.
-  HSGPU_HD void evaluate_core_case(const CoreCase &c, const double *epair, int ntypes,
+  /// The doubles of the tables evaluate_core_case() reads: the restitution table
+  /// ((ntypes + 1)^2 values) followed by the friction table (2 (ntypes + 1)^2: mu, beta0).
+  inline long core_tables_size(int ntypes)
+  {
+    return 3L * (ntypes + 1) * (ntypes + 1);
+  }
+
+  /// Calls every host-device core function on the inputs of c with the tables (restitution,
+  /// then friction: core_tables_size(ntypes) values) and writes what they give into out.
+  HSGPU_HD void evaluate_core_case(const CoreCase &c, const double *tables, int ntypes,
                                    CoreResult &out)
   {
     using namespace Collide;
     Params p = c.p;
-    p.epair = epair;
+    p.epair = tables;
+    p.fpair = tables + (ntypes + 1) * (ntypes + 1);
     p.ntypes = ntypes;
 
     // contact.h
@@ -146,9 +155,10 @@ namespace GPU {
   }
 
   /// Evaluates cases[0 .. n) on CUDA device `device`, one thread per case, with the
-  /// restitution table epair ((ntypes + 1)^2 values, copied to the device), into out[0 .. n).
+  /// restitution and friction tables (core_tables_size(ntypes) values, copied to the device),
+  /// into out[0 .. n).
   /// Throws HSGPU::GPU::Error when CUDA fails or the package was built without CUDA.
-  void run_core_cases_on_device(int device, const CoreCase *cases, int n, const double *epair,
+  void run_core_cases_on_device(int device, const CoreCase *cases, int n, const double *tables,
                                 int ntypes, CoreResult *out);
 
 }    // namespace GPU

@@ -712,7 +712,7 @@ namespace Collide {
     // Launch: blocks of BUILD_BLOCK threads, one per atom.  Body i from the caller's arrays
     // (start_body(), as the host's FixHardSphere::gather_bodies() builds it) and its step bound
     // (drift_bound(), as FixHardSphere::step_bound(), with boost[i] the bound raised by a failed
-    // check).
+    // check).  omega (rough spheres; else null): the angular velocities, 3 per atom.
     constexpr int BUILD_BLOCK = 128;    // build_kernel's blocks: a tile of Bodies in shared memory
     static_assert(sizeof(Body) % sizeof(unsigned long long) == 0, "Bodies copied as 8-byte words");
     template <class Id>
@@ -721,7 +721,8 @@ namespace Collide {
                      const double *__restrict__ f, const double *__restrict__ radius,
                      const double *__restrict__ rmass, const double *__restrict__ tlast,
                      const int *__restrict__ type, const Id *__restrict__ id,
-                     const double *__restrict__ boost, int n, double dt, double ftm2v,
+                     const double *__restrict__ omega, const double *__restrict__ boost, int n,
+                     double dt, double ftm2v,
                      double floor_bound, const unsigned long long *__restrict__ budget,
                      double reach, Body *bodies, double *bound)
     {
@@ -736,6 +737,8 @@ namespace Collide {
       if (i < n) {
         tile[threadIdx.x] = start_body(x + 3 * i, v + 3 * i, f + 3 * i, radius[i], rmass[i],
                                        tlast[i], (long) id[i], type[i], i, dt, ftm2v);
+        if (omega)    // rough spheres (the host's gather_bodies() does the same)
+          for (int d = 0; d < 3; ++d) tile[threadIdx.x].omega[d] = omega[3 * i + d];
         bound[i] = drift_bound(v + 3 * i, dt, floor_bound, boost[i], reach);
       }
       __syncthreads();
@@ -787,10 +790,10 @@ namespace Collide {
       if (b < n) tlast[bodies[b].owner] = fmax(bodies[b].tlast - dt, never);
     }
 
-    /// What goes back to the caller for an atom that had events.
+    /// What goes back to the caller for an atom that had events (omega: rough spheres only).
     struct AtomResult {
       int index;
-      double x[3], v[3];
+      double x[3], v[3], omega[3];
     };
 
     // Launch: one thread per body (n).  flag[b] = 1 where body b had events, else 0.
@@ -811,14 +814,17 @@ namespace Collide {
       AtomResult r;
       r.index = bodies[b].owner;
       drift_position(bodies[b], dt, r.x);
-      for (int d = 0; d < 3; ++d) r.v[d] = bodies[b].v[d];
+      for (int d = 0; d < 3; ++d) {
+        r.v[d] = bodies[b].v[d];
+        r.omega[d] = bodies[b].omega[d];
+      }
       out[slot[b]] = r;
     }
 
     // Launch: one thread per result (changed).  Result k into the device copies of the
-    // caller's x and v.
+    // caller's x and v (and omega, rough spheres; else null).
     __global__ void atom_write_kernel(const AtomResult *__restrict__ res, int changed, double *x,
-                                      double *v)
+                                      double *v, double *omega)
     {
       const int k = blockIdx.x * blockDim.x + threadIdx.x;
       if (k >= changed) return;
@@ -827,6 +833,8 @@ namespace Collide {
         x[3 * r.index + d] = r.x[d];
         v[3 * r.index + d] = r.v[d];
       }
+      if (omega)
+        for (int d = 0; d < 3; ++d) omega[3 * r.index + d] = r.omega[d];
     }
 
     using Clock = std::chrono::steady_clock;
@@ -876,7 +884,7 @@ namespace Collide {
         host_budget.release();
         if (serial_exec) cudaGraphExecDestroy(serial_exec);
         for (DeviceBuffer *b :
-             {&d_ax, &d_av, &d_af, &d_arad, &d_amass, &d_atlast, &d_atype, &d_aid})
+             {&d_ax, &d_av, &d_af, &d_arad, &d_amass, &d_atlast, &d_atype, &d_aid, &d_aomega})
           b->release();
         for (Locked &l : locked) unlock(l);
         if (ev_up0) cudaEventDestroy(ev_up0);
@@ -909,6 +917,7 @@ namespace Collide {
       cudaGraphExec_t serial_exec = nullptr;    // order serial: the iterations, and what
       std::vector<char> serial_key;             // arguments they were captured with
       DeviceBuffer d_ax, d_av, d_af, d_arad, d_amass, d_atlast, d_atype, d_aid;
+      DeviceBuffer d_aomega;    // run_atoms(): the angular velocities (rough spheres only)
       /// A caller's array page-locked in place (cudaHostRegister).
       struct Locked {
         void *p = nullptr;
@@ -1065,6 +1074,7 @@ namespace Collide {
       }
 
       double *d_epair = nullptr;          // the restitution table, after the scalars
+      double *d_fpair = nullptr;          // rough spheres: the friction table, after it
       Clock::time_point windows_start;    // when the last step's windows began
 
       void prepare(const Params &p);
@@ -1306,7 +1316,8 @@ namespace Collide {
       d_snap.reserve(n * sizeof(Body), "cudaMalloc(bodies)");
       d_best.reserve(n * sizeof(Event), "cudaMalloc(best events)");
       d_sums.reserve(n * sizeof(WinSum), "cudaMalloc(group tallies)");
-      d_scalars.reserve(sizeof(Scalars) + ntypes2 * sizeof(double), "cudaMalloc(scalars)");
+      const size_t ntables = p.friction ? 3 * ntypes2 : ntypes2;    // + mu, beta0 per pair
+      d_scalars.reserve(sizeof(Scalars) + ntables * sizeof(double), "cudaMalloc(scalars)");
       for (DeviceBuffer *b : {&d_bound, &d_wbound, &d_lexc})
         b->reserve(n * sizeof(double), "cudaMalloc(bounds)");
       for (DeviceBuffer *b : {&d_parent, &d_root, &d_size, &d_isroot, &d_rsize, &d_gid, &d_goff,
@@ -1317,6 +1328,13 @@ namespace Collide {
       cuda_check(cudaMemcpyAsync(d_epair, p.epair, ntypes2 * sizeof(double), cudaMemcpyHostToDevice,
                                  stream),
                  "cudaMemcpy(restitution table)");
+      d_fpair = nullptr;
+      if (p.friction) {
+        d_fpair = d_epair + ntypes2;
+        cuda_check(cudaMemcpyAsync(d_fpair, p.fpair, 2 * ntypes2 * sizeof(double),
+                                   cudaMemcpyHostToDevice, stream),
+                   "cudaMemcpy(friction table)");
+      }
     }
 
     /* The step of the n bodies in d_bodies with their step bounds in d_bound: search, windows,
@@ -1332,6 +1350,7 @@ namespace Collide {
       cuda_check(cudaMemsetAsync(d_scalars.ptr, 0, sizeof(Scalars), stream), "cudaMemset");
       Params dp = p;
       dp.epair = d_epair;
+      dp.fpair = d_fpair;
 
       scan_bodies_kernel<<<nblocks(n, TILE), TILE, 0, stream>>>(
           d_bodies.as<Body>(), d_bound.as<double>(), n, p.walls, tol, scalars());
@@ -1687,6 +1706,13 @@ namespace Collide {
         up(arrays[k].d, arrays[k].h, arrays[k].bytes);
         report.bytes_up += (long) arrays[k].bytes;
       }
+      // Rough spheres: the angular velocities, every step (other fixes may change them).
+      const bool spin = p.friction && a.omega;
+      if (spin) {
+        up(d_aomega, a.omega, n3);
+        report.bytes_up += (long) n3;
+      }
+      double *d_spin = spin ? d_aomega.as<double>() : nullptr;
       cuda_check(cudaEventRecord(ev_up1, stream), "cudaEventRecord");
       // The step budget (the host's step_budget() on the device), read back by finish().
       d_budget.reserve(4 * sizeof(unsigned long long), "cudaMalloc(budget)");
@@ -1724,14 +1750,14 @@ namespace Collide {
           build_kernel<long long><<<nblocks(n, BUILD_BLOCK), BUILD_BLOCK, 0, stream>>>(
               d_ax.as<double>(), d_av.as<double>(), d_af.as<double>(), d_arad.as<double>(),
               d_amass.as<double>(), d_atlast.as<double>(), d_atype.as<int>(), d_aid.as<long long>(),
-              d_boost.as<double>(), n, p.dt, a.ftm2v, a.bound_floor,
+              d_spin, d_boost.as<double>(), n, p.dt, a.ftm2v, a.bound_floor,
               d_budget.as<unsigned long long>(), a.reach, d_bodies.as<Body>(),
               d_bound.as<double>());
         else
           build_kernel<int><<<nblocks(n, BUILD_BLOCK), BUILD_BLOCK, 0, stream>>>(
               d_ax.as<double>(), d_av.as<double>(), d_af.as<double>(), d_arad.as<double>(),
               d_amass.as<double>(), d_atlast.as<double>(), d_atype.as<int>(), d_aid.as<int>(),
-              d_boost.as<double>(), n, p.dt, a.ftm2v, a.bound_floor,
+              d_spin, d_boost.as<double>(), n, p.dt, a.ftm2v, a.bound_floor,
               d_budget.as<unsigned long long>(), a.reach, d_bodies.as<Body>(),
               d_bound.as<double>());
         launched("build_kernel");
@@ -1770,12 +1796,15 @@ namespace Collide {
       if (whole) {
         ++prof.whole;
         atom_write_kernel<<<nblocks(changed), BLOCK, 0, stream>>>(
-            d_sums.as<AtomResult>(), changed, d_ax.as<double>(), d_av.as<double>());
+            d_sums.as<AtomResult>(), changed, d_ax.as<double>(), d_av.as<double>(), d_spin);
         launched("atom_write_kernel");
         cuda_check(cudaMemcpyAsync(a.x, d_ax.ptr, n3, cudaMemcpyDeviceToHost, stream),
                    "cudaMemcpy(x)");
         cuda_check(cudaMemcpyAsync(a.v, d_av.ptr, n3, cudaMemcpyDeviceToHost, stream),
                    "cudaMemcpy(v)");
+        if (spin)
+          cuda_check(cudaMemcpyAsync(a.omega, d_aomega.ptr, n3, cudaMemcpyDeviceToHost, stream),
+                     "cudaMemcpy(omega)");
       }
       // Every atom's time of last collision comes back whole (8 bytes per atom).
       cuda_check(cudaMemcpyAsync(a.tlast, d_atlast.ptr, n1, cudaMemcpyDeviceToHost, stream),
@@ -1794,6 +1823,8 @@ namespace Collide {
             a.x[3 * r.index + d] = r.x[d];
             a.v[3 * r.index + d] = r.v[d];
           }
+          if (spin)
+            for (int d = 0; d < 3; ++d) a.omega[3 * r.index + d] = r.omega[d];
         }
       }
       report.t_download = seconds_since(t_down);
