@@ -107,7 +107,8 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
   restart_global = 1;
   restart_peratom = 1;
   create_attribute = 1;
-  comm_forward = NFWD;
+  // The step driver sends whole bodies to the ghosts (Exchange::to_foreign).
+  comm_forward = std::max(NFWD, HSGPU::Collide::Exchange::MAX_VALUES);
   dynamic_group_allow = 0;
   // The fix may ask for a reneighboring (next_reneighbor) to raise the ghost cutoff when the
   // atoms' moves approach what it covers (pre_exchange()).

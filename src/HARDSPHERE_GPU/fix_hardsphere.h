@@ -152,6 +152,12 @@ class FixHardSphere : public Fix {
   std::vector<int> foreign_ghost;    // foreign node -> one ghost index of it
   std::vector<HSGPU::Collide::ForeignEdge> efedges;
   std::vector<HSGPU::Collide::ForeignNode> fnodes;
+  // Candidate pairs of two foreign nodes (window_driver.h's view; several ranks, parallel
+  // order): i, j foreign nodes, the lower ID first; and the partner counts that tell which
+  // foreign nodes have all their partners here.
+  std::vector<HSGPU::Collide::Edge> ffedges;
+  std::vector<double> fdeg_local, fdeg;
+  std::vector<int> fdeg_here;
   std::vector<double> spos, srad, sraw, sbound;    // the candidate search's points
   std::vector<double> sboost;        // per owned atom: a bound raised by a step's check
   double bound_floor;                // least step bound of any atom: half the fastest drift
@@ -220,6 +226,7 @@ class FixHardSphere : public Fix {
   int overlap_pass(double drift_dt, int pass, double &moved);
   void setup_backend();
   bool step_exact();
+  void view_completeness();
   void classify();
   void gather_boundary();
   void resolve(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);

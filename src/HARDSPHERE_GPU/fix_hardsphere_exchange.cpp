@@ -25,13 +25,16 @@ int LammpsExchange::rank() const
 }
 
 /* Local body b is the owned atom bodies[b].owner; a foreign node takes the values of one of
-   its ghosts, which forward communication has given its owner's values. */
+   its ghosts, which forward communication has given its owner's values.  `local` holds the
+   values of the first local.size() / nval bodies: the driver appends the foreign nodes' copies
+   to the bodies while it runs. */
 void LammpsExchange::to_foreign(const std::vector<double> &local, int nval,
                                 std::vector<double> &foreign)
 {
   Atom *atom = fix->atom;
   if (fix->xfwd.size() < (size_t) nval * atom->nmax) fix->xfwd.resize((size_t) nval * atom->nmax);
-  for (size_t b = 0; b < fix->bodies.size(); ++b) {
+  const size_t nb = local.size() / (size_t) nval;
+  for (size_t b = 0; b < nb; ++b) {
     const size_t i = (size_t) fix->bodies[b].owner;
     for (int q = 0; q < nval; ++q) fix->xfwd[nval * i + q] = local[nval * b + q];
   }

@@ -385,7 +385,9 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
     snode[np] = -1;
     sidx[np] = bd.owner;
   }
-  const int nsearch = nb;
+  // On several ranks in the parallel order the pairs between ghosts are wanted too: the step
+  // driver resolves a group that spans ranks where all its bodies and pairs are seen.
+  const bool view = comm->nprocs > 1 && !serial_order;
   // Ghosts too far from every owned body to pair with one are left out: a pair is a candidate
   // within its radii and two step bounds, and the step's check looks within the radii and two
   // excursions, each at most what the ghosts cover (ghost_reach()).  The ghost shell follows
@@ -439,17 +441,38 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
       sreach[k] = srad[k] + sbound[k];
       rm = std::max(rm, sreach[k]);
     }
-    search.find(spos.data(), sreach.data(), (int) np, nsearch, rm, 1e-9 * rm, spairs);
+    search.find(spos.data(), sreach.data(), (int) np, view ? (int) np : nb, rm, 1e-9 * rm,
+                spairs);
   }
 
   edges.clear();
   fedges.clear();
   iedges.clear();
+  ffedges.clear();
   bool maybe_overlap = false;
   for (size_t k = 0; k < spairs.size(); k += 2) {
-    const int a = spairs[k], c = spairs[k + 1];    // a is one of my bodies
+    int a = spairs[k], c = spairs[k + 1];    // a < c: a is one of my bodies or a ghost
+    if (sid[a] == sid[c]) continue;          // an atom and its own image
+    if (sbody[a] < 0) {
+      if (sbody[c] < 0) {
+        // Two foreign nodes: a pair of the view only (their owners test it for overlaps).
+        const bool swap = sid[c] < sid[a];
+        const int lo = swap ? c : a, hi = swap ? a : c;
+        double r[3], sh[3];
+        HSGPU::Collide::nearest_image_separation(&sraw[3 * (size_t) lo], &sraw[3 * (size_t) hi],
+                                                 prd, periodic, r, sh);
+        const double range = (srad[lo] + srad[hi]) + (sbound[lo] + sbound[hi]);
+        if (r[0] * r[0] + r[1] * r[1] + r[2] * r[2] > range * range) continue;
+        Edge e;
+        e.i = snode[lo];
+        e.j = snode[hi];
+        for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
+        ffedges.push_back(e);
+        continue;
+      }
+      std::swap(a, c);    // a body (or an image of one) first
+    }
     const int bi = sbody[a], bj = sbody[c], node = snode[c];
-    if (sid[a] == sid[c]) continue;    // an atom and its own image
     // Canonical orientation: the lower ID first, its separation computed that way round.
     const bool swap = sid[c] < sid[a];
     const int lo = swap ? c : a, hi = swap ? a : c;
@@ -467,7 +490,9 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
       e.i = swap ? bj : bi;
       e.j = swap ? bi : bj;
       for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
-      (c >= nsearch ? iedges : edges).push_back(e);
+      // (With the ghost pairs searched too, a pair of my atoms may also turn up between two
+      // of their images: all are sorted out below.)
+      (view || c >= nb || a >= nb ? iedges : edges).push_back(e);
     } else {
       ForeignEdge fe;
       fe.body = bi;
@@ -502,6 +527,7 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
     efedges[k].node = fedges[k].node;
     for (int d = 0; d < 3; ++d) efedges[k].shift[d] = fedges[k].shift[d];
   }
+  if (view) view_completeness();
 
   // Overlaps: pairs closer than contact, spheres inside a wall.
   int found = 0;
@@ -680,6 +706,36 @@ void FixHardSphere::setup_pre_neighbor()
                    "Fix hardsphere: overlap push separated {} overlaps in {} passes (atoms moved "
                    "at most {:.4g} in all; {} exchanges of atoms between the passes)\n",
                    pushed, pass, total, migrations);
+}
+
+/* Which foreign nodes have all their candidate partners here.  Each owner counts its atom's
+   partners (it finds all of them: the ghosts cover its reach); a rank that counts as many for
+   the atom's foreign node among its own pairs has found every one, since every pair it finds
+   is one the owner finds (the same test on the same values).  A node with a partner beyond
+   the ghosts, or one left out of the search, counts fewer and is incomplete: a group that
+   reaches it is gathered (window_driver.h). */
+void FixHardSphere::view_completeness()
+{
+  std::sort(ffedges.begin(), ffedges.end(),
+            [](const Edge &a, const Edge &b) { return a.i < b.i || (a.i == b.i && a.j < b.j); });
+  ffedges.erase(std::unique(ffedges.begin(), ffedges.end(),
+                            [](const Edge &a, const Edge &b) { return a.i == b.i && a.j == b.j; }),
+                ffedges.end());
+  const int nb = (int) bodies.size(), nf = (int) fnodes.size();
+  fdeg_local.assign(nb, 0.0);
+  for (const Edge &e : edges) {
+    fdeg_local[e.i] += 1.0;
+    fdeg_local[e.j] += 1.0;
+  }
+  for (const ForeignEdge &fe : fedges) fdeg_local[fe.body] += 1.0;
+  exchange->to_foreign(fdeg_local, 1, fdeg);
+  fdeg_here.assign(nf, 0);
+  for (const ForeignEdge &fe : fedges) ++fdeg_here[fe.node];
+  for (const Edge &e : ffedges) {
+    ++fdeg_here[e.i];
+    ++fdeg_here[e.j];
+  }
+  for (int f = 0; f < nf; ++f) fnodes[f].complete = (double) fdeg_here[f] == fdeg[f] ? 1 : 0;
 }
 
 /* Components of the edge graph (foreign nodes included): those touching a foreign node are
@@ -1058,7 +1114,7 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
     const double t0 = MPI_Wtime();
     if (vflag_atom) bvir.assign(6 * bodies.size(), 0.0);
     driver.run(bodies, edges, efedges, fnodes, p, wsettings, *be, *exchange, mine, stats,
-               vflag_atom ? bvir.data() : nullptr);
+               vflag_atom ? bvir.data() : nullptr, &ffedges);
     double xe[3], ve[3];
     for (Body &b : bodies) HSGPU::Collide::end_of_step(b, dt, xe, ve);
     sum_tallies(mine, all);

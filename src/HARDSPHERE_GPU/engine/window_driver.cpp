@@ -15,6 +15,7 @@ namespace Collide {
     constexpr double MARGIN = 1e-9;
     /// Doubles per body in the boundary exchange (pack_body), and per partner (id, shift).
     constexpr int NBODY = 29;
+    static_assert(NBODY <= Exchange::MAX_VALUES, "to_foreign() takes a body's state");
     constexpr int NPARTNER = 4;
 
     /// Gap between two bodies' surfaces at the window start, from their window start points
@@ -337,6 +338,112 @@ namespace Collide {
     }
   }
 
+  /* Merges the groups that the candidate pairs `failing` (indices into cand) join, and
+     resolves the merged sets again from the window start.  A set counts as a repair here only
+     where its lowest-ID body is local (a set that spans ranks is resolved again on each rank
+     that holds a body of it).  Returns 1 where the event cap stopped it. */
+  int WindowDriver::redo_merged(std::vector<Body> &bodies, const std::vector<Edge> &cand,
+                                const std::vector<int> &failing, const Params &p, double t1,
+                                CollisionBackend &backend, long events_before, long &repairs,
+                                long &largest)
+  {
+    const int ng = nlocal_groups;
+    std::vector<char> redo(ng, 0);
+    // Merge, and take the merged groups back to the window start.
+    for (int q : failing) {
+      ljoined[q] = 1;
+      wedges.push_back(cand[q]);
+      uf.unite(cand[q].i, cand[q].j);
+      merged.unite(merged.find(group_of[cand[q].i]), merged.find(group_of[cand[q].j]));
+    }
+    for (int q : failing) redo[merged.find(group_of[cand[q].i])] = 1;
+    // The merged groups' bodies, compacted (in body order within each), and their edges.
+    subgroups.clear();
+    for (int g = 0; g < ng; ++g)
+      if (redo[merged.find(g)]) subgroups.push_back(g);
+    std::vector<int> root_slot(ng, -1);
+    int nsets = 0;
+    for (int g : subgroups)
+      if (root_slot[merged.find(g)] < 0) root_slot[merged.find(g)] = nsets++;
+    substart.assign(nsets + 1, 0);
+    for (int g : subgroups) substart[root_slot[merged.find(g)] + 1] += gstart[g + 1] - gstart[g];
+    for (int k = 0; k < nsets; ++k) substart[k + 1] += substart[k];
+    submembers.resize(substart[nsets]);
+    {
+      std::vector<int> pos(substart.begin(), substart.end() - 1);
+      for (int g : subgroups)
+        for (int m = gstart[g]; m < gstart[g + 1]; ++m)
+          submembers[pos[root_slot[merged.find(g)]]++] = gmembers[m];
+    }
+    sub.resize(submembers.size());
+    sub_of.resize(bodies.size());
+    for (int k = 0; k < nsets; ++k) {
+      std::sort(submembers.begin() + substart[k], submembers.begin() + substart[k + 1]);
+      largest = std::max(largest, (long) (substart[k + 1] - substart[k]));
+    }
+    for (size_t m = 0; m < submembers.size(); ++m) {
+      const int b = submembers[m];
+      sub[m] = snap[b];
+      sub[m].owner = b;
+      sub_of[b] = (int) m;
+    }
+    // Members of a set occupy one contiguous range: the groups list is the identity.
+    std::vector<int> ident(submembers.size());
+    for (size_t m = 0; m < ident.size(); ++m) ident[m] = (int) m;
+    subedges.clear();
+    for (const Edge &e : wedges) {
+      const int g = group_of[e.i];
+      if (g < 0 || !redo[merged.find(g)]) continue;
+      Edge se = e;
+      se.i = sub_of[e.i];
+      se.j = sub_of[e.j];
+      subedges.push_back(se);
+    }
+    std::vector<Tally> st(nsets);
+    Tally cap;
+    cap.events = events_before;
+    for (int g = 0; g < ng; ++g)
+      if (!redo[merged.find(g)]) cap.events += gtally[g].events;
+    WindowWork w{sub.data(),      (int) sub.size(), subedges.data(), (int) subedges.size(),
+                 substart.data(), ident.data(),     nsets,           t1,
+                 st.data()};
+    if (tally_virial) {
+      subvir.assign(6 * sub.size(), 0.0);
+      w.body_virial = subvir.data();
+    }
+    backend.resolve(w, p, cap);
+    for (int k = 0; k < nsets; ++k) {
+      int low = submembers[substart[k]];
+      for (int m = substart[k] + 1; m < substart[k + 1]; ++m)
+        if (bodies[submembers[m]].id < bodies[low].id) low = submembers[m];
+      if (low < nlocal_bodies) ++repairs;
+    }
+    // Back into place; the merged set's tally goes to its root group.
+    for (size_t m = 0; m < sub.size(); ++m) {
+      const int b = submembers[m];
+      const int owner = bodies[b].owner;
+      bodies[b] = sub[m];
+      bodies[b].owner = owner;
+      if (tally_virial)
+        std::copy(subvir.begin() + 6 * m, subvir.begin() + 6 * (m + 1),
+                  wvir.begin() + 6 * (size_t) b);
+      double pe[3];
+      drift_position(bodies[b], t1, pe);
+      note_excursion(bodies[b], pe);
+      lexc[b] = std::sqrt(bodies[b].wexc2);
+    }
+    for (int g : subgroups) gtally[g] = Tally();
+    for (int g : subgroups) {
+      const int r = merged.find(g);
+      if (r == g) gtally[g] = st[root_slot[r]];
+    }
+    if (cap.capped) {
+      gtally[subgroups[0]].capped = 1;
+      return 1;
+    }
+    return 0;
+  }
+
   /* A candidate pair that was not joined could only have touched if a body of it moved
      further than its bound and the two moved at least the pair's gap together.  For such
      pairs between two local groups the groups are merged and resolved again from the window
@@ -345,10 +452,8 @@ namespace Collide {
                                   const Params &p, double t1, CollisionBackend &backend,
                                   long events_before, long &repairs)
   {
-    const int ng = nlocal_groups;
     long largest = 0;
     std::vector<int> failing;
-    std::vector<char> redo(ng, 0);
     for (int pass = 0;; ++pass) {
       failing.clear();
       for (size_t q = 0; q < edges.size(); ++q) {
@@ -363,94 +468,8 @@ namespace Collide {
         failing.push_back((int) q);
       }
       if (failing.empty()) return largest;
-      // Merge, and take the merged groups back to the window start.
-      std::fill(redo.begin(), redo.end(), 0);
-      for (int q : failing) {
-        ljoined[q] = 1;
-        wedges.push_back(edges[q]);
-        uf.unite(edges[q].i, edges[q].j);
-        merged.unite(merged.find(group_of[edges[q].i]), merged.find(group_of[edges[q].j]));
-      }
-      for (int q : failing) redo[merged.find(group_of[edges[q].i])] = 1;
-      // The merged groups' bodies, compacted (in body order within each), and their edges.
-      subgroups.clear();
-      for (int g = 0; g < ng; ++g)
-        if (redo[merged.find(g)]) subgroups.push_back(g);
-      std::vector<int> root_slot(ng, -1);
-      int nsets = 0;
-      for (int g : subgroups)
-        if (root_slot[merged.find(g)] < 0) root_slot[merged.find(g)] = nsets++;
-      substart.assign(nsets + 1, 0);
-      for (int g : subgroups) substart[root_slot[merged.find(g)] + 1] += gstart[g + 1] - gstart[g];
-      for (int k = 0; k < nsets; ++k) substart[k + 1] += substart[k];
-      submembers.resize(substart[nsets]);
-      {
-        std::vector<int> pos(substart.begin(), substart.end() - 1);
-        for (int g : subgroups)
-          for (int m = gstart[g]; m < gstart[g + 1]; ++m)
-            submembers[pos[root_slot[merged.find(g)]]++] = gmembers[m];
-      }
-      sub.resize(submembers.size());
-      sub_of.resize(bodies.size());
-      for (int k = 0; k < nsets; ++k) {
-        std::sort(submembers.begin() + substart[k], submembers.begin() + substart[k + 1]);
-        largest = std::max(largest, (long) (substart[k + 1] - substart[k]));
-      }
-      for (size_t m = 0; m < submembers.size(); ++m) {
-        const int b = submembers[m];
-        sub[m] = snap[b];
-        sub[m].owner = b;
-        sub_of[b] = (int) m;
-      }
-      // Members of a set occupy one contiguous range: the groups list is the identity.
-      std::vector<int> ident(submembers.size());
-      for (size_t m = 0; m < ident.size(); ++m) ident[m] = (int) m;
-      subedges.clear();
-      for (const Edge &e : wedges) {
-        const int g = group_of[e.i];
-        if (g < 0 || !redo[merged.find(g)]) continue;
-        Edge se = e;
-        se.i = sub_of[e.i];
-        se.j = sub_of[e.j];
-        subedges.push_back(se);
-      }
-      std::vector<Tally> st(nsets);
-      Tally cap;
-      cap.events = events_before;
-      for (int g = 0; g < ng; ++g)
-        if (!redo[merged.find(g)]) cap.events += gtally[g].events;
-      WindowWork w{sub.data(),      (int) sub.size(), subedges.data(), (int) subedges.size(),
-                   substart.data(), ident.data(),     nsets,           t1,
-                   st.data()};
-      if (tally_virial) {
-        subvir.assign(6 * sub.size(), 0.0);
-        w.body_virial = subvir.data();
-      }
-      backend.resolve(w, p, cap);
-      repairs += nsets;
-      // Back into place; the merged set's tally goes to its root group.
-      for (size_t m = 0; m < sub.size(); ++m) {
-        const int b = submembers[m];
-        const int owner = bodies[b].owner;
-        bodies[b] = sub[m];
-        bodies[b].owner = owner;
-        if (tally_virial)
-          std::copy(subvir.begin() + 6 * m, subvir.begin() + 6 * (m + 1),
-                    wvir.begin() + 6 * (size_t) b);
-        double pe[3];
-        drift_position(bodies[b], t1, pe);
-        note_excursion(bodies[b], pe);
-        lexc[b] = std::sqrt(bodies[b].wexc2);
-      }
-      for (int g : subgroups) gtally[g] = Tally();
-      for (int g : subgroups) {
-        const int r = merged.find(g);
-        if (r == g) gtally[g] = st[root_slot[r]];
-      }
-      if (cap.capped) {
-        gtally[subgroups[0]].capped = 1;
+      if (redo_merged(bodies, edges, failing, p, t1, backend, events_before, repairs, largest))
         return largest;
-      }
     }
   }
 
@@ -518,15 +537,233 @@ namespace Collide {
     return c[0];
   }
 
+  /* Every foreign node's body as its owner has it at this window start (a neighbour
+     communication: LAMMPS's forward communication to the ghosts). */
+  void WindowDriver::refresh_foreign(std::vector<Body> &bodies, int nb, Exchange &ex)
+  {
+    vsend.resize((size_t) NBODY * nb);
+    for (int b = 0; b < nb; ++b) pack_body(bodies[b], &vsend[(size_t) NBODY * b]);
+    ex.to_foreign(vsend, NBODY, vrecv);
+    const int nf = (int) bodies.size() - nb;
+    for (int f = 0; f < nf; ++f) {
+      unpack_body(&vrecv[(size_t) NBODY * f], bodies[nb + f]);
+      bodies[nb + f].owner = -1;
+    }
+  }
+
+  /* The window [t0, t1) over the view (local bodies and foreign nodes): start points, bounds,
+     window edges and groups.  Groups of the view are its connected components; those with a
+     local body and no incomplete node come first (nactive of them) and are resolved here, the
+     others are kept for repairs that may join them.  A group with a local body and an
+     incomplete node can only be resolved by the gather: view_fallback says whether any rank
+     has one (the same reduction as the largest group's).  Returns the largest group resolved
+     here over all ranks. */
+  long WindowDriver::view_edges(std::vector<Body> &bodies, double t0, double t1,
+                                const WindowSettings &s, Exchange &ex)
+  {
+    const int nv = (int) bodies.size(), nb = nlocal_bodies;
+    const double delta = t1 - t0;
+    if (!start_cached) {
+      rate.resize(nv);
+      for (int b = 0; b < nv; ++b) {
+        Body &bd = bodies[b];
+        drift_position(bd, t0, bd.w0);
+        bd.wexc2 = 0.0;
+        const double speed = std::sqrt(Contact::dot3(bd.v, bd.v));
+        rate[b] = std::max(s.bound_factor * speed, speed_floor);
+      }
+      egap.resize(xedges.size());
+      emargin.resize(xedges.size());
+      for (size_t q = 0; q < xedges.size(); ++q) {
+        const Edge &e = xedges[q];
+        const Body &bi = bodies[e.i], &bj = bodies[e.j];
+        const double s2 = bi.radius + bj.radius;
+        egap[q] = window_gap(bi.w0, bj.w0, e.shift, s2);
+        emargin[q] = MARGIN * s2;
+      }
+      start_cached = true;
+    }
+    bound.resize(nv);
+    for (int b = 0; b < nv; ++b) bound[b] = rate[b] * delta;
+    wedges.clear();
+    ljoined.assign(xedges.size(), 0);
+    for (size_t q = 0; q < xedges.size(); ++q) {
+      const Edge &e = xedges[q];
+      if (egap[q] <= bound[e.i] + bound[e.j] + emargin[q]) {
+        wedges.push_back(e);
+        ljoined[q] = 1;
+      }
+    }
+    uf.reset(nv);
+    for (const Edge &e : wedges) uf.unite(e.i, e.j);
+    vroot.assign(nv, 0);
+    for (int b = 0; b < nv; ++b) {
+      const int r = uf.find(b);
+      if (b < nb) vroot[r] |= 1;
+      if (!vcomplete[b]) vroot[r] |= 2;
+    }
+    // Group numbers: resolved here first, then the others, each in order of their first body.
+    fill.assign(nv, -1);
+    int ng = 0, fb = 0;
+    for (int b = 0; b < nv; ++b) {
+      const int r = uf.find(b);
+      if (vroot[r] == 1 && fill[r] < 0) fill[r] = ng++;
+    }
+    nactive = ng;
+    for (int b = 0; b < nv; ++b) {
+      const int r = uf.find(b);
+      if (fill[r] < 0) fill[r] = ng++;
+      if (vroot[r] == 3) fb = 1;
+    }
+    nlocal_groups = ng;
+    gstart.assign(ng + 1, 0);
+    for (int b = 0; b < nv; ++b) gstart[fill[uf.find(b)] + 1]++;
+    long largest = 0;
+    for (int g = 0; g < ng; ++g) {
+      if (g < nactive) largest = std::max(largest, (long) gstart[g + 1]);
+      gstart[g + 1] += gstart[g];
+    }
+    gmembers.resize(nv);
+    {
+      std::vector<int> pos(gstart.begin(), gstart.end() - 1);
+      for (int b = 0; b < nv; ++b) gmembers[pos[fill[uf.find(b)]]++] = b;
+    }
+    gact.assign(ng, 0);
+    ginc.assign(ng, 0);
+    for (int g = 0; g < ng; ++g) {
+      gact[g] = g < nactive;
+      ginc[g] = (vroot[uf.find(gmembers[gstart[g]])] & 2) != 0;
+    }
+    double l[2] = {(double) largest, (double) fb};
+    ex.max(l, 2);
+    view_fallback = l[1] != 0.0;
+    return (long) l[0];
+  }
+
+  /* Repairs over the view (repair_local()'s check and merge): the candidate pairs not joined
+     that touch a group resolved here and could have touched.  Both ends' excursions are
+     known: a foreign node's comes from its owner, which resolved its group (the same bits
+     where it was resolved here too), so every rank that resolves a group finds the same
+     pairs.  A pair that would join a group with an incomplete node needs the gather: returns
+     -1, and every rank does, from one reduction per pass.  Else returns 1 where the event cap
+     stopped some rank, 0 when no pair is left. */
+  int WindowDriver::repair_view(std::vector<Body> &bodies, const Params &p, double t1,
+                                CollisionBackend &backend, Exchange &ex, long events_before,
+                                int capped, long &repairs, long &largest)
+  {
+    const int nv = (int) bodies.size(), nb = nlocal_bodies;
+    std::vector<int> failing;
+    for (int pass = 0;; ++pass) {
+      if (ex.nranks() > 1) {
+        vsend.assign(lexc.begin(), lexc.begin() + nb);
+        ex.to_foreign(vsend, 1, fexc);
+        for (int f = 0; f < nv - nb; ++f) lexc[nb + f] = fexc[f];
+      }
+      failing.clear();
+      long need = 0;
+      for (size_t q = 0; q < xedges.size(); ++q) {
+        if (ljoined[q]) continue;
+        const Edge &e = xedges[q];
+        const int gi = merged.find(group_of[e.i]), gj = merged.find(group_of[e.j]);
+        if (!gact[gi] && !gact[gj]) continue;
+        if (!(lexc[e.i] > bound[e.i]) && !(lexc[e.j] > bound[e.j])) continue;
+        const Body &bi = bodies[e.i], &bj = bodies[e.j];
+        const double s2 = bi.radius + bj.radius;
+        if (lexc[e.i] + lexc[e.j] + MARGIN * s2 < window_gap(bi.w0, bj.w0, e.shift, s2)) continue;
+        failing.push_back((int) q);
+        if (ginc[gi] || ginc[gj]) need = 1;
+      }
+      long c[3] = {(long) failing.size(), need, capped ? 1L : 0L};
+      ex.sum(c, 3);
+      if (c[1] > 0) return -1;
+      if (c[2] > 0) return 1;
+      if (c[0] == 0) return 0;
+      if (failing.empty()) continue;    // other ranks repair; nothing here changes
+      capped = redo_merged(bodies, xedges, failing, p, t1, backend, events_before, repairs,
+                           largest);
+      for (int g : subgroups) gact[merged.find(g)] = 1;
+    }
+  }
+
+  /* A window resolved as before this view existed: local groups here, groups that reach a
+     foreign node gathered from every rank and resolved on all of them (bodies holds the local
+     bodies only).  Every rank takes this path for the same windows. */
+  void WindowDriver::fallback_window(std::vector<Body> &bodies, const std::vector<Edge> &edges,
+                                     const std::vector<ForeignEdge> &fedges,
+                                     const std::vector<ForeignNode> &foreign, const Params &p,
+                                     const WindowSettings &s, CollisionBackend &backend,
+                                     Exchange &ex, double t0, double t1, Tally &tloc, Tally &tbnd,
+                                     int &capped, long (&acc)[5], long &largest)
+  {
+    const int nb = (int) bodies.size();
+    start_cached = false;
+    largest = std::max(largest, window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex));
+    // Local groups, each with its own tally (a repair replaces a group's tally).
+    if (snap.capacity() < bodies.size()) snap.reserve(bodies.size() + bodies.size() / 8 + 64);
+    snap.assign(bodies.begin(), bodies.end());
+    group_of.assign(nb, -1);
+    for (int g = 0; g < nlocal_groups; ++g)
+      for (int m = gstart[g]; m < gstart[g + 1]; ++m) group_of[gmembers[m]] = g;
+    gtally.assign(nlocal_groups, Tally());
+    Tally cap;
+    cap.events = tloc.events;
+    WindowWork w{
+        bodies.data(), nb, wedges.data(), (int) wedges.size(), gstart.data(), gmembers.data(),
+        nlocal_groups, t1, gtally.data()};
+    if (tally_virial) {
+      wvir.assign(6 * (size_t) nb, 0.0);
+      w.body_virial = wvir.data();
+    }
+    backend.resolve(w, p, cap);
+    excursions(bodies, t1);
+    long repairs = 0;
+    merged.reset(nlocal_groups);
+    largest = std::max(largest, repair_local(bodies, edges, p, t1, backend, tloc.events, repairs));
+    // Boundary groups, the same on every rank; repaired until no missed pair is left.
+    long bl = 0, bg = 0, nbound = 0, joined_all = 0;
+    const Tally tbnd_start = tbnd;
+    for (int pass = 0;; ++pass) {
+      tbnd = tbnd_start;
+      bl = bg = nbound = 0;
+      resolve_boundary(bodies, fedges, foreign, p, t1, backend, ex, tbnd, bl, bg, nbound);
+      excursions(bodies, t1, &bsent);    // the others are as the local pass left them
+      const long joined = join_missed_boundary(bodies, edges, fedges, foreign, ex);
+      ++stats_gathers;
+      if (joined == 0) break;
+      joined_all += joined;
+    }
+    if (tally_virial)
+      for (size_t k = 0; k < 6 * (size_t) nb; ++k) body_virial_out[k] += wvir[k];
+    int cp = cap.capped | tbnd.capped;
+    long ngroups = 0;
+    for (int g = 0; g < nlocal_groups; ++g) {
+      cp |= gtally[g].capped;
+      tloc.add(gtally[g]);
+      if (gtally[g].events > 0) ++ngroups;
+    }
+    long c[1] = {cp ? 1L : 0L};
+    ex.sum(c, 1);
+    capped = c[0] > 0;
+    largest = std::max(largest, bl);
+    // The boundary figures are the same on every rank: counted once, on rank 0.
+    const bool first = ex.rank() == 0;
+    acc[0] += ngroups + (first ? bg : 0);
+    acc[1] += repairs + (first ? joined_all : 0);
+    acc[2] += first ? nbound : 0;
+  }
+
   void WindowDriver::run(std::vector<Body> &bodies, const std::vector<Edge> &edges,
                          const std::vector<ForeignEdge> &fedges,
                          const std::vector<ForeignNode> &foreign, const Params &p,
                          const WindowSettings &s, CollisionBackend &backend, Exchange &ex,
-                         Tally &mine, WindowStats &stats, double *body_virial)
+                         Tally &mine, WindowStats &stats, double *body_virial,
+                         const std::vector<Edge> *foreign_pairs)
   {
     const double dt = p.dt;
     tally_virial = body_virial != nullptr;
-    const int nb = (int) bodies.size();
+    body_virial_out = body_virial;
+    const int nb = (int) bodies.size(), nf = (int) foreign.size();
+    const int nv = nb + nf;
     long counts[1] = {(long) nb};
     ex.sum(counts, 1);
     const long target = WindowChooser::target(s, counts[0]);
@@ -538,82 +775,136 @@ namespace Collide {
     ex.max(&vmax, 1);
     speed_floor = floor_fraction_or(s, 0.25) * std::sqrt(vmax);
     stats = WindowStats();
+    stats_gathers = 0;
+
+    // The view: local bodies [0, nb), foreign nodes [nb, nv); its candidate pairs with the
+    // lower ID first.
+    nlocal_bodies = nb;
+    xedges.assign(edges.begin(), edges.end());
+    for (const ForeignEdge &fe : fedges) {
+      Edge e;
+      const int node = nb + fe.node;
+      const bool body_first = bodies[fe.body].id < foreign[fe.node].id;
+      e.i = body_first ? fe.body : node;
+      e.j = body_first ? node : fe.body;
+      for (int d = 0; d < 3; ++d) e.shift[d] = body_first ? fe.shift[d] : -fe.shift[d];
+      xedges.push_back(e);
+    }
+    if (foreign_pairs)
+      for (const Edge &fp : *foreign_pairs) {
+        Edge e = fp;
+        e.i += nb;
+        e.j += nb;
+        xedges.push_back(e);
+      }
+    vcomplete.assign(nv, 1);
+    for (int f = 0; f < nf; ++f) vcomplete[nb + f] = foreign[f].complete ? 1 : 0;
+    bodies.resize(nv);
+
     Tally tloc, tbnd;
+    long acc[5] = {0, 0, 0, 0, 0};    // groups, repairs, boundary bodies, spanning groups
+    long largest_all = 0;
     double t0 = 0.0;
     chooser.start_step(dt);
     int k = 0;
     while (t0 < dt) {
+      if (ex.nranks() > 1) refresh_foreign(bodies, nb, ex);
       long largest;
-      start_cached = false;    // a new window start: window_edges() computes its start points
+      start_cached = false;    // a new window start: view_edges() computes its start points
       const double t1 = chooser.next(
-          t0, k, dt, s, target,
-          [&](double t) { return window_edges(bodies, edges, fedges, foreign, t0, t, s, ex); },
+          t0, k, dt, s, target, [&](double t) { return view_edges(bodies, t0, t, s, ex); },
           largest);
-
-      // Local groups, each with its own tally (a repair replaces a group's tally).
-      // The snapshot keeps its capacity with some slack: on several ranks the number of
-      // bodies changes every step, and a fresh allocation of this size costs page faults.
-      if (snap.capacity() < bodies.size()) snap.reserve(bodies.size() + bodies.size() / 8 + 64);
-      snap.assign(bodies.begin(), bodies.end());
-      group_of.assign(nb, -1);
-      for (int g = 0; g < nlocal_groups; ++g)
-        for (int m = gstart[g]; m < gstart[g + 1]; ++m) group_of[gmembers[m]] = g;
-      gtally.assign(nlocal_groups, Tally());
-      Tally cap;
-      cap.events = tloc.events;
-      WindowWork w{
-          bodies.data(), nb, wedges.data(), (int) wedges.size(), gstart.data(), gmembers.data(),
-          nlocal_groups, t1, gtally.data()};
-      if (tally_virial) {
-        wvir.assign(6 * (size_t) nb, 0.0);
-        w.body_virial = wvir.data();
-      }
-      backend.resolve(w, p, cap);
-      excursions(bodies, t1);
-      long repairs = 0;
-      merged.reset(nlocal_groups);
-      largest =
-          std::max(largest, repair_local(bodies, edges, p, t1, backend, tloc.events, repairs));
-      // Boundary groups, the same on every rank; repaired until no missed pair is left.
-      long bl = 0, bg = 0, nbound = 0;
-      if (ex.nranks() > 1) {
-        const Tally tbnd_start = tbnd;
-        for (int pass = 0;; ++pass) {
-          tbnd = tbnd_start;
-          bl = bg = nbound = 0;
-          resolve_boundary(bodies, fedges, foreign, p, t1, backend, ex, tbnd, bl, bg, nbound);
-          excursions(bodies, t1, &bsent);    // the others are as the local pass left them
-          const long joined = join_missed_boundary(bodies, edges, fedges, foreign, ex);
-          ++stats.gathers;
-          if (joined == 0) break;
-          repairs += joined;
+      largest_all = std::max(largest_all, largest);
+      int capped = 0;
+      bool gather = view_fallback;
+      if (!gather) {
+        // The groups resolved here, each with its own tally (a repair replaces a group's).
+        if (snap.capacity() < bodies.size()) snap.reserve(bodies.size() + bodies.size() / 8 + 64);
+        snap.assign(bodies.begin(), bodies.end());
+        const int ng = nlocal_groups;
+        group_of.resize(nv);
+        for (int g = 0; g < ng; ++g)
+          for (int m = gstart[g]; m < gstart[g + 1]; ++m) group_of[gmembers[m]] = g;
+        gtally.assign(ng, Tally());
+        Tally cap;
+        cap.events = tloc.events;
+        WindowWork w{bodies.data(), nv,      wedges.data(), (int) wedges.size(), gstart.data(),
+                     gmembers.data(), nactive, t1,           gtally.data()};
+        if (tally_virial) {
+          wvir.assign(6 * (size_t) nv, 0.0);
+          w.body_virial = wvir.data();
+        }
+        backend.resolve(w, p, cap);
+        excursions(bodies, t1);
+        merged.reset(ng);
+        long repairs = 0, rl = 0;
+        const int r = repair_view(bodies, p, t1, backend, ex, tloc.events, cap.capped, repairs, rl);
+        largest_all = std::max(largest_all, rl);
+        if (r < 0) {
+          // A repair reaches an incomplete node somewhere: the window again, with the gather.
+          for (int b = 0; b < nv; ++b) bodies[b] = snap[b];
+          gather = true;
+        } else {
+          capped = r;
+          // Each group's tally once over the ranks: by the rank of its lowest-ID body.
+          std::vector<long> low(ng, 0);
+          std::vector<int> lowb(ng, -1);
+          std::vector<char> spans(ng, 0);
+          std::vector<int> size(ng, 0);
+          for (int g = 0; g < ng; ++g) {
+            const int rt = merged.find(g);
+            if (!gact[rt]) continue;
+            for (int m = gstart[g]; m < gstart[g + 1]; ++m) {
+              const int b = gmembers[m];
+              if (lowb[rt] < 0 || bodies[b].id < low[rt]) {
+                low[rt] = bodies[b].id;
+                lowb[rt] = b;
+              }
+              if (b >= nb) spans[rt] = 1;
+            }
+            size[rt] += gstart[g + 1] - gstart[g];
+          }
+          for (int g = 0; g < ng; ++g) {
+            if (merged.find(g) != g || !gact[g]) continue;
+            if (lowb[g] >= nb) continue;
+            tloc.add(gtally[g]);
+            if (gtally[g].events > 0) ++acc[0];
+            if (spans[g]) {
+              ++acc[3];
+              acc[2] += size[g];
+            }
+          }
+          acc[1] += repairs;
+          if (tally_virial)
+            for (size_t q = 0; q < 6 * (size_t) nb; ++q) body_virial[q] += wvir[q];
         }
       }
-      if (tally_virial)
-        for (size_t k = 0; k < 6 * (size_t) nb; ++k) body_virial[k] += wvir[k];
-      int capped = cap.capped | tbnd.capped;
-      long ngroups = 0;
-      for (int g = 0; g < nlocal_groups; ++g) {
-        capped |= gtally[g].capped;
-        tloc.add(gtally[g]);
-        if (gtally[g].events > 0) ++ngroups;
+      if (gather) {
+        ++stats.fallbacks;
+        bodies.resize(nb);
+        fallback_window(bodies, edges, fedges, foreign, p, s, backend, ex, t0, t1, tloc, tbnd,
+                        capped, acc, largest_all);
+        bodies.resize(nv);
       }
-      double flags[2] = {capped ? 1.0 : 0.0, (double) largest};
-      ex.max(flags, 2);
-      long c[2] = {ngroups, repairs};
-      ex.sum(c, 2);
-      stats.largest_group = std::max({stats.largest_group, (long) flags[1], bl});
-      stats.groups += c[0] + bg;
-      stats.boundary_bodies += nbound;
-      stats.repairs += c[1];
       ++k;
-      if (flags[0] != 0.0) {
+      if (capped) {
         tloc.capped = 1;
         break;
       }
       t0 = t1;
     }
+    bodies.resize(nb);
     stats.windows = k;
+    stats.gathers = stats_gathers;
+    // The step's figures over all ranks: two reductions per step.
+    double l = (double) largest_all;
+    ex.max(&l, 1);
+    ex.sum(acc, 5);
+    stats.largest_group = (long) l;
+    stats.groups = acc[0];
+    stats.repairs = acc[1];
+    stats.boundary_bodies = acc[2];
+    stats.spanning = acc[3];
     mine = tloc;
     if (ex.rank() == 0) mine.add(tbnd);
   }

@@ -50,10 +50,13 @@ namespace Collide {
     double shift[3];
   };
 
-  /// A body owned by another rank, known here through a ghost atom.
+  /// A body owned by another rank, known here through a ghost atom.  complete: every
+  /// candidate partner of it is known here (a local body or a foreign node, with the pair
+  /// among the edges given to run()), so that a group of it can be resolved here.
   struct ForeignNode {
     long id;
     double radius;
+    int complete = 0;
   };
 
   /// What the driver needs from the ranks around it.  SingleRank below is the trivial one.
@@ -62,6 +65,8 @@ namespace Collide {
     virtual ~Exchange() = default;
     virtual int nranks() const = 0;
     virtual int rank() const = 0;
+    /// Most values per body that to_foreign() is given (a body's whole state).
+    static constexpr int MAX_VALUES = 29;
     /// nval values per local body to the foreign nodes (nval per node, from their owner).
     virtual void to_foreign(const std::vector<double> &local, int nval,
                             std::vector<double> &foreign) = 0;
@@ -98,6 +103,8 @@ namespace Collide {
     long boundary_bodies = 0;    // bodies in boundary groups, summed over the windows
     long repairs = 0;            // groups resolved again after a missed pair was joined
     long gathers = 0;            // gathers of boundary groups (windows and their repairs)
+    long spanning = 0;           // groups that span ranks resolved where they lie (no gather)
+    long fallbacks = 0;          // windows whose spanning groups were gathered instead
   };
 
   class WindowDriver {
@@ -112,7 +119,8 @@ namespace Collide {
     void run(std::vector<Body> &bodies, const std::vector<Edge> &edges,
              const std::vector<ForeignEdge> &fedges, const std::vector<ForeignNode> &foreign,
              const Params &p, const WindowSettings &s, CollisionBackend &backend, Exchange &ex,
-             Tally &mine, WindowStats &stats, double *body_virial = nullptr);
+             Tally &mine, WindowStats &stats, double *body_virial = nullptr,
+             const std::vector<Edge> *foreign_pairs = nullptr);
 
    private:
     WindowChooser chooser;
@@ -147,7 +155,33 @@ namespace Collide {
     // body (replaced where a body is taken back to the window start), of the repair's
     // compacted bodies and of the gathered boundary bodies
     bool tally_virial = false;
+    double *body_virial_out = nullptr;    // run()'s body_virial
+    long stats_gathers = 0;
     std::vector<double> wvir, subvir, gvir;
+
+    // the view: the local bodies, then a copy of each foreign node's body (refreshed from its
+    // owner at every window start); its candidate pairs (local, local-foreign, foreign pairs)
+    int nlocal_bodies = 0;
+    std::vector<Edge> xedges;
+    std::vector<char> vcomplete;    // view node: all its candidate partners are in the view
+    std::vector<double> vsend, vrecv;
+    std::vector<char> vroot;    // per union-find root: 1 has a local body, 2 an incomplete node
+    int nactive = 0;            // view groups [0, nactive) are resolved here
+    std::vector<char> gact, ginc;    // per view group: resolved here / has an incomplete node
+    bool view_fallback = false;      // some rank's group reaches an incomplete node
+
+    void refresh_foreign(std::vector<Body> &bodies, int nb, Exchange &ex);
+    long view_edges(std::vector<Body> &bodies, double t0, double t1, const WindowSettings &s,
+                    Exchange &ex);
+    int repair_view(std::vector<Body> &bodies, const Params &p, double t1,
+                    CollisionBackend &backend, Exchange &ex, long events_before, int capped,
+                    long &repairs, long &largest);
+    void fallback_window(std::vector<Body> &bodies, const std::vector<Edge> &edges,
+                         const std::vector<ForeignEdge> &fedges,
+                         const std::vector<ForeignNode> &foreign, const Params &p,
+                         const WindowSettings &s, CollisionBackend &backend, Exchange &ex,
+                         double t0, double t1, Tally &tloc, Tally &tbnd, int &capped,
+                         long (&acc)[5], long &largest);
 
     long window_edges(std::vector<Body> &bodies, const std::vector<Edge> &edges,
                       const std::vector<ForeignEdge> &fedges,
@@ -158,6 +192,9 @@ namespace Collide {
                           CollisionBackend &backend, Exchange &ex, Tally &tb, long &largest,
                           long &ngroups, long &nbound);
     void excursions(std::vector<Body> &bodies, double t1, const std::vector<int> *only = nullptr);
+    int redo_merged(std::vector<Body> &bodies, const std::vector<Edge> &cand,
+                    const std::vector<int> &failing, const Params &p, double t1,
+                    CollisionBackend &backend, long events_before, long &repairs, long &largest);
     long repair_local(std::vector<Body> &bodies, const std::vector<Edge> &edges, const Params &p,
                       double t1, CollisionBackend &backend, long events_before, long &repairs);
     long join_missed_boundary(std::vector<Body> &bodies, const std::vector<Edge> &edges,
