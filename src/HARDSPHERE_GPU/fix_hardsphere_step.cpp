@@ -1096,6 +1096,7 @@ void FixHardSphere::step_serial(Tally &mine, Tally &all)
   last_windows = 1.0;
   last_boundary = comm->nprocs > 1 ? (double) atom->natoms : 0.0;
   last_gathers = comm->nprocs > 1 ? 1.0 : 0.0;
+  last_spanning = last_fallbacks = 0.0;
 }
 
 /* Time windows and groups (engine/window_driver.h). */
@@ -1133,6 +1134,8 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
   last_windows = (double) stats.windows;
   last_boundary = (double) stats.boundary_bodies;
   last_gathers = (double) stats.gathers;
+  last_spanning = (double) stats.spanning;
+  last_fallbacks = (double) stats.fallbacks;
 }
 
 bool FixHardSphere::resident_usable() const
@@ -1227,7 +1230,7 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
   last_groups = (double) report.stats.groups;
   last_windows = (double) report.stats.windows;
   last_boundary = 0.0;
-  last_gathers = 0.0;
+  last_gathers = last_spanning = last_fallbacks = 0.0;
   // With group all the device also shifted every atom's time of last collision to the end of
   // this step.
   return whole ? 2 : 1;
@@ -1303,6 +1306,8 @@ void FixHardSphere::post_integrate()
   run_sum.groups += last_groups;
   run_sum.boundary += last_boundary;
   run_sum.gathers += last_gathers;
+  run_sum.spanning += last_spanning;
+  run_sum.fallbacks += last_fallbacks;
   comm_last = comm_step;
   run_sum.collectives += comm_step.collectives;
   run_sum.halos += comm_step.halos;
@@ -1328,12 +1333,15 @@ void FixHardSphere::post_run()
                  "events per "
                  "step; largest group {:.0f} atoms, {:.3g} windows and {:.4g} groups per step, "
                  "{:.0f} repairs, {:.0f} steps redone; {:.4g} atoms per step in groups spanning "
-                 "ranks, {:.3g} gathers per step; search {:.4g} s, resolve {:.4g} s; the fix's "
-                 "step {:.4g} ms per step ({:.4g} ms after the first)\n",
+                 "ranks, {:.4g} such groups per step resolved where they lie, {:.3g} gathers "
+                 "per step ({:.3g} windows per step fell back to them); search {:.4g} s, "
+                 "resolve {:.4g} s; the fix's step {:.4g} ms per step ({:.4g} ms after the "
+                 "first)\n",
                  serial_order ? "serial" : "parallel",
                  (serial_order && !resident) ? "cpu" : backend->name(), r.steps, r.pairs / n,
                  r.events / n, r.largest, r.windows / n, r.groups / n, n_repair + r.repairs,
-                 n_redo + r.redos, r.boundary / n, r.gathers / n, t_search + r.t_search,
+                 n_redo + r.redos, r.boundary / n, r.spanning / n, r.gathers / n,
+                 r.fallbacks / n, t_search + r.t_search,
                  t_resolve + r.t_resolve, 1e3 * r.t_step / n,
                  r.steps > 1 ? 1e3 * (r.t_step - r.t_first) / (n - 1) : 1e3 * r.t_step);
   if (comm->nprocs > 1)

@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <utility>
 
@@ -208,13 +210,17 @@ namespace Collide {
                                       double t1, CollisionBackend &backend, Exchange &ex, Tally &tb,
                                       long &largest, long &ngroups, long &nbound)
   {
-    const int nb = (int) bodies.size();
+    // Over the view (gather_view): the local bodies of the groups marked in gsel, whose window
+    // edges are all among the view's (each sent by the owner of its lower-ID body).
+    const int nb = gather_view ? nlocal_bodies : (int) bodies.size();
+    auto chosen = [&](int b) { return gather_view ? gsel[b] != 0 : isb[uf.find(b)] != 0; };
     // Partners with a higher ID of each boundary body: window edges only.
     std::vector<int> pstart(nb + 1, 0);
     for (const Edge &e : wedges)
-      if (isb[uf.find(e.i)]) pstart[e.i + 1]++;
-    for (int q : fwin)
-      if (foreign[fedges[q].node].id > bodies[fedges[q].body].id) pstart[fedges[q].body + 1]++;
+      if (e.i < nb && chosen(e.i)) pstart[e.i + 1]++;
+    if (!gather_view)
+      for (int q : fwin)
+        if (foreign[fedges[q].node].id > bodies[fedges[q].body].id) pstart[fedges[q].body + 1]++;
     for (int b = 0; b < nb; ++b) pstart[b + 1] += pstart[b];
     std::vector<double> partners((size_t) NPARTNER * pstart[nb]);
     std::vector<int> pos(pstart.begin(), pstart.end() - 1);
@@ -224,17 +230,18 @@ namespace Collide {
       for (int d = 0; d < 3; ++d) o[1 + d] = shift[d];
     };
     for (const Edge &e : wedges)
-      if (isb[uf.find(e.i)]) put(e.i, bodies[e.j].id, e.shift);
-    for (int q : fwin) {
-      const ForeignEdge &fe = fedges[q];
-      if (foreign[fe.node].id > bodies[fe.body].id) put(fe.body, foreign[fe.node].id, fe.shift);
-    }
+      if (e.i < nb && chosen(e.i)) put(e.i, bodies[e.j].id, e.shift);
+    if (!gather_view)
+      for (int q : fwin) {
+        const ForeignEdge &fe = fedges[q];
+        if (foreign[fe.node].id > bodies[fe.body].id) put(fe.body, foreign[fe.node].id, fe.shift);
+      }
 
     send.clear();
     std::vector<int> &sent = bsent;
     sent.clear();
     for (int b = 0; b < nb; ++b) {
-      if (!isb[uf.find(b)]) continue;
+      if (!chosen(b)) continue;
       const size_t at = send.size();
       send.resize(at + NBODY + 1);
       pack_body(bodies[b], &send[at]);
@@ -279,6 +286,12 @@ namespace Collide {
       for (int q = 0; q < np; ++q) {
         const double *o = h + NBODY + 1 + (size_t) NPARTNER * q;
         const auto it = std::lower_bound(ids.begin(), ids.end(), (long) o[0]);
+        if (it == ids.end() || *it != (long) o[0]) {
+          // A partner nobody sent: the ranks disagreed on a group (never expected; every
+          // rank sees the same gathered data and falls back alike).
+          gather_broken = true;
+          continue;
+        }
         Edge e;
         e.i = k;
         e.j = (int) (it - ids.begin());
@@ -618,9 +631,13 @@ namespace Collide {
     nlocal_groups = ng;
     gstart.assign(ng + 1, 0);
     for (int b = 0; b < nv; ++b) gstart[fill[uf.find(b)] + 1]++;
+    // The largest group with a local body, whether resolved here or gathered.
+    std::vector<char> &hasloc = gloc;
+    hasloc.assign(ng, 0);
+    for (int b = 0; b < nb; ++b) hasloc[fill[uf.find(b)]] = 1;
     long largest = 0;
     for (int g = 0; g < ng; ++g) {
-      if (g < nactive) largest = std::max(largest, (long) gstart[g + 1]);
+      if (hasloc[g]) largest = std::max(largest, (long) gstart[g + 1]);
       gstart[g + 1] += gstart[g];
     }
     gmembers.resize(nv);
@@ -665,14 +682,22 @@ namespace Collide {
         if (ljoined[q]) continue;
         const Edge &e = xedges[q];
         const int gi = merged.find(group_of[e.i]), gj = merged.find(group_of[e.j]);
-        if (!gact[gi] && !gact[gj]) continue;
+        // Pairs of groups resolved here, from the view or gathered (a gathered group's
+        // pairs are checked by the owners of its bodies).
+        if (!gact[gi] && !gact[gj] && !(e.i < nb && ggat[gi]) && !(e.j < nb && ggat[gj]))
+          continue;
         if (!(lexc[e.i] > bound[e.i]) && !(lexc[e.j] > bound[e.j])) continue;
         const Body &bi = bodies[e.i], &bj = bodies[e.j];
         const double s2 = bi.radius + bj.radius;
         if (lexc[e.i] + lexc[e.j] + MARGIN * s2 < window_gap(bi.w0, bj.w0, e.shift, s2)) continue;
         failing.push_back((int) q);
-        if (ginc[gi] || ginc[gj]) need = 1;
+        // A merge that some rank holding a body of it could not resolve from its view.
+        if (!gsafe[gi] || !gsafe[gj]) need = 1;
       }
+      if (std::getenv("HSGPU_DEBUG_VIEW"))
+        std::fprintf(stderr, "DBG rank %d pass %d failing %zu need %ld broken %d\n", ex.rank(), pass,
+                     failing.size(), need, (int) gather_broken);
+      if (gather_broken) need = 1;
       long c[3] = {(long) failing.size(), need, capped ? 1L : 0L};
       ex.sum(c, 3);
       if (c[1] > 0) return -1;
@@ -681,7 +706,7 @@ namespace Collide {
       if (failing.empty()) continue;    // other ranks repair; nothing here changes
       capped = redo_merged(bodies, xedges, failing, p, t1, backend, events_before, repairs,
                            largest);
-      for (int g : subgroups) gact[merged.find(g)] = 1;
+      for (int g : subgroups) gact[merged.find(g)] = gsafe[merged.find(g)] = 1;
     }
   }
 
@@ -816,7 +841,7 @@ namespace Collide {
           largest);
       largest_all = std::max(largest_all, largest);
       int capped = 0;
-      bool gather = view_fallback;
+      bool gather = false;    // the whole window by the old path
       if (!gather) {
         // The groups resolved here, each with its own tally (a repair replaces a group's).
         if (snap.capacity() < bodies.size()) snap.reserve(bodies.size() + bodies.size() / 8 + 64);
@@ -826,20 +851,73 @@ namespace Collide {
         for (int g = 0; g < ng; ++g)
           for (int m = gstart[g]; m < gstart[g + 1]; ++m) group_of[gmembers[m]] = g;
         gtally.assign(ng, Tally());
+        gsafe.assign(ng, 0);
+        ggat.assign(ng, 0);
+        for (int g = 0; g < ng; ++g) gsafe[g] = !ginc[g];
+        bool demoted = false;
+        if (view_fallback) {
+          // Some rank does not see a group of its own whole: its bodies are flagged to the
+          // ghosts, and every group with a flagged body is gathered by every rank that holds
+          // a body of it (one that sees the group whole sees the flag; one that does not
+          // flagged it itself).
+          vsend.resize(nb);
+          for (int b = 0; b < nb; ++b) vsend[b] = ginc[group_of[b]] ? 1.0 : 0.0;
+          ex.to_foreign(vsend, 1, fexc);
+          for (int f = 0; f < nf; ++f)
+            if (fexc[f] != 0.0) gsafe[group_of[nb + f]] = 0;
+          for (int g = 0; g < ng; ++g) {
+            if (gsafe[g] || !gloc[g]) continue;
+            ggat[g] = 1;
+            if (gact[g]) {
+              gact[g] = 0;
+              demoted = true;
+            }
+          }
+        }
         Tally cap;
         cap.events = tloc.events;
-        WindowWork w{bodies.data(), nv,      wedges.data(), (int) wedges.size(), gstart.data(),
-                     gmembers.data(), nactive, t1,           gtally.data()};
-        if (tally_virial) {
-          wvir.assign(6 * (size_t) nv, 0.0);
-          w.body_virial = wvir.data();
+        if (tally_virial) wvir.assign(6 * (size_t) nv, 0.0);
+        if (!demoted) {
+          WindowWork w{bodies.data(),   nv,      wedges.data(), (int) wedges.size(), gstart.data(),
+                       gmembers.data(), nactive, t1,            gtally.data()};
+          if (tally_virial) w.body_virial = wvir.data();
+          backend.resolve(w, p, cap);
+        } else {
+          // The groups still resolved here, compacted.
+          astart.assign(1, 0);
+          amembers.clear();
+          amap.clear();
+          for (int g = 0; g < nactive; ++g) {
+            if (!gact[g]) continue;
+            amembers.insert(amembers.end(), gmembers.begin() + gstart[g],
+                            gmembers.begin() + gstart[g + 1]);
+            astart.push_back((int) amembers.size());
+            amap.push_back(g);
+          }
+          atally.assign(amap.size(), Tally());
+          WindowWork w{bodies.data(),   nv,  wedges.data(), (int) wedges.size(), astart.data(),
+                       amembers.data(), (int) amap.size(), t1, atally.data()};
+          if (tally_virial) w.body_virial = wvir.data();
+          backend.resolve(w, p, cap);
+          for (size_t q = 0; q < amap.size(); ++q) gtally[amap[q]] = atally[q];
         }
-        backend.resolve(w, p, cap);
+        Tally tgw;
+        long bl = 0, bg = 0, nbound = 0;
+        gather_broken = false;
+        if (view_fallback) {
+          gsel.assign(nb, 0);
+          for (int b = 0; b < nb; ++b) gsel[b] = ggat[group_of[b]];
+          gather_view = true;
+          resolve_boundary(bodies, fedges, foreign, p, t1, backend, ex, tgw, bl, bg, nbound);
+          gather_view = false;
+          ++stats_gathers;
+        }
         excursions(bodies, t1);
         merged.reset(ng);
         long repairs = 0, rl = 0;
-        const int r = repair_view(bodies, p, t1, backend, ex, tloc.events, cap.capped, repairs, rl);
-        largest_all = std::max(largest_all, rl);
+        const int r = repair_view(bodies, p, t1, backend, ex, tloc.events,
+                                  cap.capped | tgw.capped, repairs, rl);
+        largest_all = std::max({largest_all, rl, bl});
         if (r < 0) {
           // A repair reaches an incomplete node somewhere: the window again, with the gather.
           for (int b = 0; b < nv; ++b) bodies[b] = snap[b];
@@ -875,6 +953,12 @@ namespace Collide {
             }
           }
           acc[1] += repairs;
+          // The gathered groups: the same on every rank, counted on rank 0.
+          tbnd.add(tgw);
+          if (ex.rank() == 0) {
+            acc[0] += bg;
+            acc[2] += nbound;
+          }
           if (tally_virial)
             for (size_t q = 0; q < 6 * (size_t) nb; ++q) body_virial[q] += wvir[q];
         }

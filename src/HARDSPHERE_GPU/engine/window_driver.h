@@ -169,6 +169,16 @@ namespace Collide {
     int nactive = 0;            // view groups [0, nactive) are resolved here
     std::vector<char> gact, ginc;    // per view group: resolved here / has an incomplete node
     bool view_fallback = false;      // some rank's group reaches an incomplete node
+    // Groups of the view gathered (some rank that holds a body of them does not see them
+    // whole): gsafe per group: complete here and no body of it in a group some owner cannot
+    // see whole (then every rank that holds a body of it resolves it from the view);
+    // gsel per local body: in a gathered group.
+    std::vector<char> gsafe, ggat, gsel;
+    std::vector<char> gloc;    // per view group: has a local body
+    std::vector<int> astart, amembers, amap;    // the groups resolved here, where compacted
+    std::vector<Tally> atally;
+    bool gather_view = false;      // resolve_boundary() over the view's gathered groups
+    bool gather_broken = false;    // a gathered partner was missing (then the old path)
 
     void refresh_foreign(std::vector<Body> &bodies, int nb, Exchange &ex);
     long view_edges(std::vector<Body> &bodies, double t0, double t1, const WindowSettings &s,
