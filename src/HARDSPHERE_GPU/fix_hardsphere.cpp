@@ -113,8 +113,10 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
   restart_global = 1;
   restart_peratom = 1;
   create_attribute = 1;
-  // The step driver sends whole bodies to the ghosts (Exchange::to_foreign).
+  // The step driver sends whole bodies to the ghosts and back (Exchange::to_foreign,
+  // to_owner).
   comm_forward = std::max(NFWD, HSGPU::Collide::Exchange::MAX_VALUES);
+  comm_reverse = HSGPU::Collide::Exchange::MAX_VALUES;
   dynamic_group_allow = 0;
   // The fix may ask for a reneighboring (next_reneighbor) to raise the ghost cutoff when the
   // atoms' moves approach what it covers (pre_exchange()).
@@ -728,6 +730,30 @@ int FixHardSphere::pack_forward_comm(int n, int *list_, double *buf, int, int *)
     for (int q = 0; q < nv; ++q) buf[m++] = g[q];
   }
   return m;
+}
+
+/* Reverse communication (the step driver's to_owner()): values whose flag (first value) is
+   set replace those held; the others are left alone. */
+int FixHardSphere::pack_reverse_comm(int n, int first, double *buf)
+{
+  const int nv = fwd_nval;
+  int m = 0;
+  for (int i = first; i < first + n; ++i) {
+    const double *g = &xfwd[(size_t) nv * i];
+    for (int q = 0; q < nv; ++q) buf[m++] = g[q];
+  }
+  return m;
+}
+
+void FixHardSphere::unpack_reverse_comm(int n, int *list_, double *buf)
+{
+  const int nv = fwd_nval;
+  int m = 0;
+  for (int k = 0; k < n; ++k, m += nv) {
+    if (buf[m] == 0.0) continue;
+    double *g = &xfwd[(size_t) nv * list_[k]];
+    for (int q = 0; q < nv; ++q) g[q] = buf[m + q];
+  }
 }
 
 void FixHardSphere::unpack_forward_comm(int n, int first, double *buf)

@@ -53,6 +53,8 @@ class FixHardSphere : public Fix {
   int size_restart(int) override;
   int maxsize_restart() override;
   int pack_forward_comm(int, int *, double *, int, int *) override;
+  int pack_reverse_comm(int, int, double *) override;
+  void unpack_reverse_comm(int, int *, double *) override;
   void unpack_forward_comm(int, int, double *) override;
   double memory_usage() override;
 

@@ -417,7 +417,9 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
       out2 += e * e;
     }
     const double range = (g[6] + keep) * (1.0 + 1e-9);
-    if (out2 > range * range) continue;
+    // (In the view the deeper ghosts count too: the groups that reach them can then be
+    // resolved here.)
+    if (!view && out2 > range * range) continue;
     srad[np] = g[6];
     sbound[np] = g[9];
     sid[np] = tag[j];

@@ -3,8 +3,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <limits>
 #include <utility>
 
@@ -61,6 +59,36 @@ namespace Collide {
       o[26] = b.type;
       o[27] = b.nevents;
       o[28] = b.owner;
+    }
+
+    /// What a step's events change in a body (all a window start needs besides what
+    /// pack_body() brought at the step's first window; w0 and wexc2 are recomputed there).
+    constexpr int NDYN = 13;
+
+    void pack_dynamic(const Body &b, double *o)
+    {
+      for (int d = 0; d < 3; ++d) {
+        o[d] = b.x[d];
+        o[3 + d] = b.v[d];
+        o[6 + d] = b.rest[d];
+      }
+      o[9] = b.tref;
+      o[10] = b.tlast;
+      o[11] = (double) b.last;
+      o[12] = b.nevents;
+    }
+
+    void unpack_dynamic(const double *o, Body &b)
+    {
+      for (int d = 0; d < 3; ++d) {
+        b.x[d] = o[d];
+        b.v[d] = o[3 + d];
+        b.rest[d] = (int) o[6 + d];
+      }
+      b.tref = o[9];
+      b.tlast = o[10];
+      b.last = (long) o[11];
+      b.nevents = (int) o[12];
     }
 
     void unpack_body(const double *o, Body &b)
@@ -550,17 +578,29 @@ namespace Collide {
     return c[0];
   }
 
-  /* Every foreign node's body as its owner has it at this window start (a neighbour
-     communication: LAMMPS's forward communication to the ghosts). */
-  void WindowDriver::refresh_foreign(std::vector<Body> &bodies, int nb, Exchange &ex)
+  /* Every foreign node's body of the view as its owner has it at this window start (a
+     neighbour communication: LAMMPS's forward communication to the ghosts); the whole body at
+     the step's first window, what events change at the others. */
+  void WindowDriver::refresh_foreign(std::vector<Body> &bodies, int nb, Exchange &ex, bool whole)
   {
-    vsend.resize((size_t) NBODY * nb);
-    for (int b = 0; b < nb; ++b) pack_body(bodies[b], &vsend[(size_t) NBODY * b]);
-    ex.to_foreign(vsend, NBODY, vrecv);
-    const int nf = (int) bodies.size() - nb;
-    for (int f = 0; f < nf; ++f) {
-      unpack_body(&vrecv[(size_t) NBODY * f], bodies[nb + f]);
-      bodies[nb + f].owner = -1;
+    const int nval = whole ? NBODY : NDYN;
+    vsend.resize((size_t) nval * nb);
+    for (int b = 0; b < nb; ++b) {
+      if (whole)
+        pack_body(bodies[b], &vsend[(size_t) nval * b]);
+      else
+        pack_dynamic(bodies[b], &vsend[(size_t) nval * b]);
+    }
+    ex.to_foreign(vsend, nval, vrecv);
+    for (size_t k = 0; k < vnode.size(); ++k) {
+      Body &fb = bodies[nb + k];
+      const double *o = &vrecv[(size_t) nval * vnode[k]];
+      if (whole) {
+        unpack_body(o, fb);
+        fb.owner = -1;
+      } else {
+        unpack_dynamic(o, fb);
+      }
     }
   }
 
@@ -674,7 +714,7 @@ namespace Collide {
       if (ex.nranks() > 1) {
         vsend.assign(lexc.begin(), lexc.begin() + nb);
         ex.to_foreign(vsend, 1, fexc);
-        for (int f = 0; f < nv - nb; ++f) lexc[nb + f] = fexc[f];
+        for (int k = 0; k < nv - nb; ++k) lexc[nb + k] = fexc[vnode[k]];
       }
       failing.clear();
       long need = 0;
@@ -694,9 +734,6 @@ namespace Collide {
         // A merge that some rank holding a body of it could not resolve from its view.
         if (!gsafe[gi] || !gsafe[gj]) need = 1;
       }
-      if (std::getenv("HSGPU_DEBUG_VIEW"))
-        std::fprintf(stderr, "DBG rank %d pass %d failing %zu need %ld broken %d\n", ex.rank(), pass,
-                     failing.size(), need, (int) gather_broken);
       if (gather_broken) need = 1;
       long c[3] = {(long) failing.size(), need, capped ? 1L : 0L};
       ex.sum(c, 3);
@@ -788,7 +825,16 @@ namespace Collide {
     tally_virial = body_virial != nullptr;
     body_virial_out = body_virial;
     const int nb = (int) bodies.size(), nf = (int) foreign.size();
-    const int nv = nb + nf;
+    // The view's foreign nodes: those in some candidate pair (the others join nothing).
+    vslot.assign(nf, -1);
+    vnode.clear();
+    auto slot = [&](int f) {
+      if (vslot[f] < 0) {
+        vslot[f] = nb + (int) vnode.size();
+        vnode.push_back(f);
+      }
+      return vslot[f];
+    };
     long counts[1] = {(long) nb};
     ex.sum(counts, 1);
     const long target = WindowChooser::target(s, counts[0]);
@@ -808,7 +854,7 @@ namespace Collide {
     xedges.assign(edges.begin(), edges.end());
     for (const ForeignEdge &fe : fedges) {
       Edge e;
-      const int node = nb + fe.node;
+      const int node = slot(fe.node);
       const bool body_first = bodies[fe.body].id < foreign[fe.node].id;
       e.i = body_first ? fe.body : node;
       e.j = body_first ? node : fe.body;
@@ -818,12 +864,13 @@ namespace Collide {
     if (foreign_pairs)
       for (const Edge &fp : *foreign_pairs) {
         Edge e = fp;
-        e.i += nb;
-        e.j += nb;
+        e.i = slot(fp.i);
+        e.j = slot(fp.j);
         xedges.push_back(e);
       }
+    const int nv = nb + (int) vnode.size();
     vcomplete.assign(nv, 1);
-    for (int f = 0; f < nf; ++f) vcomplete[nb + f] = foreign[f].complete ? 1 : 0;
+    for (int k = 0; k < nv - nb; ++k) vcomplete[nb + k] = foreign[vnode[k]].complete ? 1 : 0;
     bodies.resize(nv);
 
     Tally tloc, tbnd;
@@ -832,8 +879,10 @@ namespace Collide {
     double t0 = 0.0;
     chooser.start_step(dt);
     int k = 0;
+    bool whole = true;    // the next refresh sends whole bodies
     while (t0 < dt) {
-      if (ex.nranks() > 1) refresh_foreign(bodies, nb, ex);
+      if (ex.nranks() > 1) refresh_foreign(bodies, nb, ex, whole);
+      whole = false;
       long largest;
       start_cached = false;    // a new window start: view_edges() computes its start points
       const double t1 = chooser.next(
@@ -854,63 +903,81 @@ namespace Collide {
         gsafe.assign(ng, 0);
         ggat.assign(ng, 0);
         for (int g = 0; g < ng; ++g) gsafe[g] = !ginc[g];
-        bool demoted = false;
+        vflag.assign(nv - nb, 0);
         if (view_fallback) {
-          // Some rank does not see a group of its own whole: its bodies are flagged to the
-          // ghosts, and every group with a flagged body is gathered by every rank that holds
-          // a body of it (one that sees the group whole sees the flag; one that does not
-          // flagged it itself).
+          // Some rank does not see a group of its own whole: the bodies of such groups are
+          // flagged to the ghosts.  A rank that holds a body of the group and sees it whole
+          // resolves it and sends the flagged bodies' results to their owners; a group that
+          // no rank holding a body of it sees whole is gathered.
           vsend.resize(nb);
           for (int b = 0; b < nb; ++b) vsend[b] = ginc[group_of[b]] ? 1.0 : 0.0;
           ex.to_foreign(vsend, 1, fexc);
-          for (int f = 0; f < nf; ++f)
-            if (fexc[f] != 0.0) gsafe[group_of[nb + f]] = 0;
-          for (int g = 0; g < ng; ++g) {
-            if (gsafe[g] || !gloc[g]) continue;
-            ggat[g] = 1;
-            if (gact[g]) {
-              gact[g] = 0;
-              demoted = true;
+          for (int k = 0; k < nv - nb; ++k)
+            if (fexc[vnode[k]] != 0.0) {
+              vflag[k] = 1;
+              gsafe[group_of[nb + k]] = 0;
             }
-          }
+          for (int g = 0; g < ng; ++g)
+            if (gloc[g] && ginc[g]) ggat[g] = 1;
         }
         Tally cap;
         cap.events = tloc.events;
         if (tally_virial) wvir.assign(6 * (size_t) nv, 0.0);
-        if (!demoted) {
+        {
           WindowWork w{bodies.data(),   nv,      wedges.data(), (int) wedges.size(), gstart.data(),
                        gmembers.data(), nactive, t1,            gtally.data()};
           if (tally_virial) w.body_virial = wvir.data();
           backend.resolve(w, p, cap);
-        } else {
-          // The groups still resolved here, compacted.
-          astart.assign(1, 0);
-          amembers.clear();
-          amap.clear();
-          for (int g = 0; g < nactive; ++g) {
-            if (!gact[g]) continue;
-            amembers.insert(amembers.end(), gmembers.begin() + gstart[g],
-                            gmembers.begin() + gstart[g + 1]);
-            astart.push_back((int) amembers.size());
-            amap.push_back(g);
-          }
-          atally.assign(amap.size(), Tally());
-          WindowWork w{bodies.data(),   nv,  wedges.data(), (int) wedges.size(), astart.data(),
-                       amembers.data(), (int) amap.size(), t1, atally.data()};
-          if (tally_virial) w.body_virial = wvir.data();
-          backend.resolve(w, p, cap);
-          for (size_t q = 0; q < amap.size(); ++q) gtally[amap[q]] = atally[q];
         }
         Tally tgw;
         long bl = 0, bg = 0, nbound = 0;
         gather_broken = false;
         if (view_fallback) {
+          // To the owners: flag, body, per-atom virial.
+          const int nval = 1 + NBODY + (tally_virial ? 6 : 0);
+          vfsend.assign((size_t) nval * nf, 0.0);
+          for (int k = 0; k < nv - nb; ++k) {
+            if (!vflag[k] || !gact[group_of[nb + k]]) continue;
+            double *o = &vfsend[(size_t) nval * vnode[k]];
+            o[0] = 1.0;
+            pack_body(bodies[nb + k], o + 1);
+            if (tally_virial)
+              std::copy(wvir.begin() + 6 * (size_t) (nb + k), wvir.begin() + 6 * (size_t) (nb + k + 1),
+                        o + 1 + NBODY);
+          }
+          ex.to_owner(vfsend, nval, nb, vfrecv);
+          std::vector<int> got(ng, 0), want(ng, 0);
+          for (int b = 0; b < nb; ++b) {
+            const int g = group_of[b];
+            if (!ggat[g]) continue;
+            ++want[g];
+            const double *o = &vfrecv[(size_t) nval * b];
+            if (o[0] == 0.0) continue;
+            ++got[g];
+            const int owner = bodies[b].owner;
+            unpack_body(o + 1, bodies[b]);
+            bodies[b].owner = owner;
+            if (tally_virial) std::copy(o + 1 + NBODY, o + 1 + NBODY + 6, wvir.begin() + 6 * (size_t) b);
+          }
+          long c[2] = {0, 0};
           gsel.assign(nb, 0);
-          for (int b = 0; b < nb; ++b) gsel[b] = ggat[group_of[b]];
-          gather_view = true;
-          resolve_boundary(bodies, fedges, foreign, p, t1, backend, ex, tgw, bl, bg, nbound);
-          gather_view = false;
-          ++stats_gathers;
+          for (int b = 0; b < nb; ++b) {
+            const int g = group_of[b];
+            if (ggat[g] && got[g] == 0) gsel[b] = 1;
+          }
+          for (int g = 0; g < ng; ++g) {
+            if (!ggat[g]) continue;
+            if (got[g] == 0) c[0] = 1;
+            else if (got[g] != want[g]) c[1] = 1;    // never expected: the old path then
+          }
+          ex.sum(c, 2);
+          if (c[1] > 0) gather_broken = true;
+          if (c[0] > 0) {
+            gather_view = true;
+            resolve_boundary(bodies, fedges, foreign, p, t1, backend, ex, tgw, bl, bg, nbound);
+            gather_view = false;
+            ++stats_gathers;
+          }
         }
         excursions(bodies, t1);
         merged.reset(ng);
@@ -934,11 +1001,13 @@ namespace Collide {
             if (!gact[rt]) continue;
             for (int m = gstart[g]; m < gstart[g + 1]; ++m) {
               const int b = gmembers[m];
+              if (b >= nb) spans[rt] = 1;
+              // Among the bodies whose owners resolve the group (not flagged).
+              if (b >= nb && vflag[b - nb]) continue;
               if (lowb[rt] < 0 || bodies[b].id < low[rt]) {
                 low[rt] = bodies[b].id;
                 lowb[rt] = b;
               }
-              if (b >= nb) spans[rt] = 1;
             }
             size[rt] += gstart[g + 1] - gstart[g];
           }
@@ -965,7 +1034,8 @@ namespace Collide {
       }
       if (gather) {
         ++stats.fallbacks;
-        bodies.resize(nb);
+        bodies.resize(nb);    // the foreign copies are made whole again at the next window
+        whole = true;
         fallback_window(bodies, edges, fedges, foreign, p, s, backend, ex, t0, t1, tloc, tbnd,
                         capped, acc, largest_all);
         bodies.resize(nv);

@@ -65,11 +65,18 @@ namespace Collide {
     virtual ~Exchange() = default;
     virtual int nranks() const = 0;
     virtual int rank() const = 0;
-    /// Most values per body that to_foreign() is given (a body's whole state).
-    static constexpr int MAX_VALUES = 29;
+    /// Most values per body that to_foreign() and to_owner() are given (a body's whole
+    /// state, with a flag and its per-atom virial for to_owner()).
+    static constexpr int MAX_VALUES = 36;
     /// nval values per local body to the foreign nodes (nval per node, from their owner).
     virtual void to_foreign(const std::vector<double> &local, int nval,
                             std::vector<double> &foreign) = 0;
+    /// The other way: nval values per foreign node to its owner, into nval per local body
+    /// (nlocal of them).  The first value of each is a flag: nonzero where the node sends
+    /// something; a local body that nobody sent to gets zeros.  Where several ranks send to
+    /// one body, they send the same values.
+    virtual void to_owner(const std::vector<double> &foreign, int nval, int nlocal,
+                          std::vector<double> &local) = 0;
     /// Every rank's `send`, concatenated in rank order, into `recv`; `mine` is the offset of
     /// this rank's part.
     virtual void allgather(const std::vector<double> &send, std::vector<double> &recv,
@@ -85,6 +92,11 @@ namespace Collide {
     void to_foreign(const std::vector<double> &, int, std::vector<double> &foreign) override
     {
       foreign.clear();
+    }
+    void to_owner(const std::vector<double> &, int nval, int nlocal,
+                  std::vector<double> &local) override
+    {
+      local.assign((size_t) nval * nlocal, 0.0);
     }
     void allgather(const std::vector<double> &send, std::vector<double> &recv, long &mine) override
     {
@@ -164,6 +176,7 @@ namespace Collide {
     int nlocal_bodies = 0;
     std::vector<Edge> xedges;
     std::vector<char> vcomplete;    // view node: all its candidate partners are in the view
+    std::vector<int> vslot, vnode;    // foreign node -> view index (-1: none), and back
     std::vector<double> vsend, vrecv;
     std::vector<char> vroot;    // per union-find root: 1 has a local body, 2 an incomplete node
     int nactive = 0;            // view groups [0, nactive) are resolved here
@@ -175,12 +188,12 @@ namespace Collide {
     // gsel per local body: in a gathered group.
     std::vector<char> gsafe, ggat, gsel;
     std::vector<char> gloc;    // per view group: has a local body
-    std::vector<int> astart, amembers, amap;    // the groups resolved here, where compacted
-    std::vector<Tally> atally;
+    std::vector<char> vflag;    // view foreign node: its owner does not see its group whole
+    std::vector<double> vfsend, vfrecv;    // results to the owners of flagged bodies
     bool gather_view = false;      // resolve_boundary() over the view's gathered groups
     bool gather_broken = false;    // a gathered partner was missing (then the old path)
 
-    void refresh_foreign(std::vector<Body> &bodies, int nb, Exchange &ex);
+    void refresh_foreign(std::vector<Body> &bodies, int nb, Exchange &ex, bool whole);
     long view_edges(std::vector<Body> &bodies, double t0, double t1, const WindowSettings &s,
                     Exchange &ex);
     int repair_view(std::vector<Body> &bodies, const Params &p, double t1,
