@@ -27,8 +27,9 @@
                                            step, summed over the ranks (ext)
                                         27 groups spanning ranks resolved where they lie
                                            (no gather), last step (ext)
-                                        28 windows whose spanning groups fell back to the
-                                           gather, last step
+                                        28 windows resolved by the old path (every spanning
+                                           group gathered), last step
+                                        29 atoms gathered (of those in 11), last step (ext)
 ------------------------------------------------------------------------------------- */
 
 #include "fix_hardsphere.h"
@@ -66,7 +67,7 @@ namespace {
 
 constexpr double NEVER_COLLIDED = -1.0e30;    // tlast of an atom that never collided
 const char *const FACES[HSGPU::Collide::NFACES] = {"xlo", "xhi", "ylo", "yhi", "zlo", "zhi"};
-constexpr int NVECTOR = 28;
+constexpr int NVECTOR = 29;
 constexpr int DEFAULT_MAXPUSH = 1000;    // overlap push passes before giving up
 constexpr int RESTART_FORMAT = 2;        // global restart data: -format, count, values
 
@@ -89,7 +90,7 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
     step_amax(0.0), vend2(0.0), maxevents(0), tlast(nullptr), n_step(0.0), n_total(0.0),
     n_wall(0.0), ke_total(0.0), max_events(0.0), events_total(0.0), n_redo(0.0), last_largest(0.0),
     last_groups(0.0), last_windows(0.0), last_boundary(0.0), last_gathers(0.0), last_spanning(0.0),
-    last_fallbacks(0.0), t_search(0.0),
+    last_fallbacks(0.0), last_gathered(0.0), t_search(0.0),
     t_resolve(0.0), t_step(0.0), n_repair(0.0), n_resident(0.0), n_declined(0.0),
     last_candidates(0.0), n_ghost_raise(0.0), bound_floor(0.0), exchange(nullptr), fwd_nval(0),
     n_push(0.0)
@@ -104,7 +105,7 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
   global_freq = 1;
   extvector = -1;
   extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1, 0, 1, 0, 0, 1, 0, 0,
-                             1, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 1, 0};
+                             1, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 1, 0, 1};
   virial_global_flag = 1;
   virial_peratom_flag = 1;    // on the steps LAMMPS asks for it (compute stress/atom)
   thermo_virial = 1;
@@ -566,6 +567,8 @@ double FixHardSphere::compute_vector(int n)
     return last_spanning;
   case 27:
     return last_fallbacks;
+  case 28:
+    return last_gathered;
   default:
     return 0.0;
   }

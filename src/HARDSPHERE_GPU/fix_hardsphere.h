@@ -106,7 +106,8 @@ class FixHardSphere : public Fix {
   double last_boundary;      // atoms in groups that spanned ranks, last step (all windows)
   double last_gathers;       // gathers of the groups that span ranks, last step
   double last_spanning;      // groups spanning ranks resolved where they lie, last step
-  double last_fallbacks;     // windows whose spanning groups were gathered, last step
+  double last_fallbacks;     // windows resolved by the old path, last step
+  double last_gathered;      // atoms gathered (of those in spanning groups), last step
   double t_search;           // seconds spent in the candidate search, in total
   double t_resolve;          // seconds spent resolving, in total
   double t_step;             // seconds spent in the fix's step (post_integrate), in total
@@ -129,7 +130,7 @@ class FixHardSphere : public Fix {
     bigint steps = 0;
     double pairs = 0.0, events = 0.0, largest = 0.0, windows = 0.0, groups = 0.0;
     double boundary = 0.0, gathers = 0.0, repairs = 0.0, redos = 0.0;
-    double spanning = 0.0, fallbacks = 0.0;
+    double spanning = 0.0, fallbacks = 0.0, gathered = 0.0;
     double t_search = 0.0, t_resolve = 0.0, t_step = 0.0;
     double t_first = 0.0;       // seconds of the run's first step (allocations, page-locking)
     bigint resident = 0;        // steps carried out on the device

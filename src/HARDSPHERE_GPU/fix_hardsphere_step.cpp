@@ -473,6 +473,8 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
         continue;
       }
       std::swap(a, c);    // a body (or an image of one) first
+    } else if (a >= nb && sbody[c] >= 0) {
+      continue;    // two images of my atoms: the pair is found from the atom itself
     }
     const int bi = sbody[a], bj = sbody[c], node = snode[c];
     // Canonical orientation: the lower ID first, its separation computed that way round.
@@ -492,9 +494,7 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
       e.i = swap ? bj : bi;
       e.j = swap ? bi : bj;
       for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
-      // (With the ghost pairs searched too, a pair of my atoms may also turn up between two
-      // of their images: all are sorted out below.)
-      (view || c >= nb || a >= nb ? iedges : edges).push_back(e);
+      (c >= nb || a >= nb ? iedges : edges).push_back(e);
     } else {
       ForeignEdge fe;
       fe.body = bi;
@@ -1099,6 +1099,7 @@ void FixHardSphere::step_serial(Tally &mine, Tally &all)
   last_boundary = comm->nprocs > 1 ? (double) atom->natoms : 0.0;
   last_gathers = comm->nprocs > 1 ? 1.0 : 0.0;
   last_spanning = last_fallbacks = 0.0;
+  last_gathered = last_boundary;
 }
 
 /* Time windows and groups (engine/window_driver.h). */
@@ -1138,6 +1139,7 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
   last_gathers = (double) stats.gathers;
   last_spanning = (double) stats.spanning;
   last_fallbacks = (double) stats.fallbacks;
+  last_gathered = (double) stats.gathered;
 }
 
 bool FixHardSphere::resident_usable() const
@@ -1232,7 +1234,7 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
   last_groups = (double) report.stats.groups;
   last_windows = (double) report.stats.windows;
   last_boundary = 0.0;
-  last_gathers = last_spanning = last_fallbacks = 0.0;
+  last_gathers = last_spanning = last_fallbacks = last_gathered = 0.0;
   // With group all the device also shifted every atom's time of last collision to the end of
   // this step.
   return whole ? 2 : 1;
@@ -1310,6 +1312,7 @@ void FixHardSphere::post_integrate()
   run_sum.gathers += last_gathers;
   run_sum.spanning += last_spanning;
   run_sum.fallbacks += last_fallbacks;
+  run_sum.gathered += last_gathered;
   comm_last = comm_step;
   run_sum.collectives += comm_step.collectives;
   run_sum.halos += comm_step.halos;
@@ -1336,14 +1339,14 @@ void FixHardSphere::post_run()
                  "step; largest group {:.0f} atoms, {:.3g} windows and {:.4g} groups per step, "
                  "{:.0f} repairs, {:.0f} steps redone; {:.4g} atoms per step in groups spanning "
                  "ranks, {:.4g} such groups per step resolved where they lie, {:.3g} gathers "
-                 "per step ({:.3g} windows per step fell back to them); search {:.4g} s, "
-                 "resolve {:.4g} s; the fix's step {:.4g} ms per step ({:.4g} ms after the "
-                 "first)\n",
+                 "per step of {:.4g} atoms ({:.3g} windows per step on the old path); search "
+                 "{:.4g} s, resolve {:.4g} s; the fix's step {:.4g} ms per step ({:.4g} ms after "
+                 "the first)\n",
                  serial_order ? "serial" : "parallel",
                  (serial_order && !resident) ? "cpu" : backend->name(), r.steps, r.pairs / n,
                  r.events / n, r.largest, r.windows / n, r.groups / n, n_repair + r.repairs,
                  n_redo + r.redos, r.boundary / n, r.spanning / n, r.gathers / n,
-                 r.fallbacks / n, t_search + r.t_search,
+                 r.gathered / n, r.fallbacks / n, t_search + r.t_search,
                  t_resolve + r.t_resolve, 1e3 * r.t_step / n,
                  r.steps > 1 ? 1e3 * (r.t_step - r.t_first) / (n - 1) : 1e3 * r.t_step);
   if (comm->nprocs > 1)

@@ -91,6 +91,23 @@ namespace Collide {
       b.nevents = (int) o[12];
     }
 
+    /// A window's result for a body: what events change, with the body's excursions.
+    constexpr int NRES = NDYN + 2;
+
+    void pack_result(const Body &b, double *o)
+    {
+      pack_dynamic(b, o);
+      o[NDYN] = b.exc2;
+      o[NDYN + 1] = b.wexc2;
+    }
+
+    void unpack_result(const double *o, Body &b)
+    {
+      unpack_dynamic(o, b);
+      b.exc2 = o[NDYN];
+      b.wexc2 = o[NDYN + 1];
+    }
+
     void unpack_body(const double *o, Body &b)
     {
       for (int d = 0; d < 3; ++d) {
@@ -655,9 +672,35 @@ namespace Collide {
       if (b < nb) vroot[r] |= 1;
       if (!vcomplete[b]) vroot[r] |= 2;
     }
+    // The largest group with a local body (resolved here or elsewhere), from the roots' sizes;
+    // the groups themselves are made for the chosen window only (view_groups()).
+    fill.assign(nv, 0);
+    long largest = 0;
+    int fb = 0;
+    for (int b = 0; b < nv; ++b) {
+      const int r = uf.find(b);
+      ++fill[r];
+    }
+    for (int b = 0; b < nv; ++b) {
+      if (uf.find(b) != b) continue;
+      if (vroot[b] & 1) largest = std::max(largest, (long) fill[b]);
+      if (vroot[b] == 3) fb = 1;
+    }
+    double l[2] = {(double) largest, (double) fb};
+    ex.max(l, 2);
+    view_fallback = l[1] != 0.0;
+    return (long) l[0];
+  }
+
+  /* The groups of the chosen window (view_edges()' last call): connected components of the
+     view, those with a local body and no incomplete node first (nactive of them, resolved
+     here), then the others (kept for repairs that may join them), each in order of its first
+     body, members in body order. */
+  void WindowDriver::view_groups(int nv, int nb)
+  {
     // Group numbers: resolved here first, then the others, each in order of their first body.
     fill.assign(nv, -1);
-    int ng = 0, fb = 0;
+    int ng = 0;
     for (int b = 0; b < nv; ++b) {
       const int r = uf.find(b);
       if (vroot[r] == 1 && fill[r] < 0) fill[r] = ng++;
@@ -666,20 +709,13 @@ namespace Collide {
     for (int b = 0; b < nv; ++b) {
       const int r = uf.find(b);
       if (fill[r] < 0) fill[r] = ng++;
-      if (vroot[r] == 3) fb = 1;
     }
     nlocal_groups = ng;
     gstart.assign(ng + 1, 0);
     for (int b = 0; b < nv; ++b) gstart[fill[uf.find(b)] + 1]++;
-    // The largest group with a local body, whether resolved here or gathered.
-    std::vector<char> &hasloc = gloc;
-    hasloc.assign(ng, 0);
-    for (int b = 0; b < nb; ++b) hasloc[fill[uf.find(b)]] = 1;
-    long largest = 0;
-    for (int g = 0; g < ng; ++g) {
-      if (hasloc[g]) largest = std::max(largest, (long) gstart[g + 1]);
-      gstart[g + 1] += gstart[g];
-    }
+    gloc.assign(ng, 0);
+    for (int b = 0; b < nb; ++b) gloc[fill[uf.find(b)]] = 1;
+    for (int g = 0; g < ng; ++g) gstart[g + 1] += gstart[g];
     gmembers.resize(nv);
     {
       std::vector<int> pos(gstart.begin(), gstart.end() - 1);
@@ -691,10 +727,6 @@ namespace Collide {
       gact[g] = g < nactive;
       ginc[g] = (vroot[uf.find(gmembers[gstart[g]])] & 2) != 0;
     }
-    double l[2] = {(double) largest, (double) fb};
-    ex.max(l, 2);
-    view_fallback = l[1] != 0.0;
-    return (long) l[0];
   }
 
   /* Repairs over the view (repair_local()'s check and merge): the candidate pairs not joined
@@ -812,6 +844,7 @@ namespace Collide {
     acc[0] += ngroups + (first ? bg : 0);
     acc[1] += repairs + (first ? joined_all : 0);
     acc[2] += first ? nbound : 0;
+    acc[4] += first ? nbound : 0;
   }
 
   void WindowDriver::run(std::vector<Body> &bodies, const std::vector<Edge> &edges,
@@ -874,7 +907,8 @@ namespace Collide {
     bodies.resize(nv);
 
     Tally tloc, tbnd;
-    long acc[5] = {0, 0, 0, 0, 0};    // groups, repairs, boundary bodies, spanning groups
+    // groups, repairs, boundary bodies, spanning groups resolved here, bodies gathered
+    long acc[5] = {0, 0, 0, 0, 0};
     long largest_all = 0;
     double t0 = 0.0;
     chooser.start_step(dt);
@@ -889,6 +923,7 @@ namespace Collide {
           t0, k, dt, s, target, [&](double t) { return view_edges(bodies, t0, t, s, ex); },
           largest);
       largest_all = std::max(largest_all, largest);
+      view_groups(nv, nb);
       int capped = 0;
       bool gather = false;    // the whole window by the old path
       if (!gather) {
@@ -933,17 +968,17 @@ namespace Collide {
         long bl = 0, bg = 0, nbound = 0;
         gather_broken = false;
         if (view_fallback) {
-          // To the owners: flag, body, per-atom virial.
-          const int nval = 1 + NBODY + (tally_virial ? 6 : 0);
+          // To the owners: flag, result, per-atom virial.
+          const int nval = 1 + NRES + (tally_virial ? 6 : 0);
           vfsend.assign((size_t) nval * nf, 0.0);
           for (int k = 0; k < nv - nb; ++k) {
             if (!vflag[k] || !gact[group_of[nb + k]]) continue;
             double *o = &vfsend[(size_t) nval * vnode[k]];
             o[0] = 1.0;
-            pack_body(bodies[nb + k], o + 1);
+            pack_result(bodies[nb + k], o + 1);
             if (tally_virial)
               std::copy(wvir.begin() + 6 * (size_t) (nb + k), wvir.begin() + 6 * (size_t) (nb + k + 1),
-                        o + 1 + NBODY);
+                        o + 1 + NRES);
           }
           ex.to_owner(vfsend, nval, nb, vfrecv);
           std::vector<int> got(ng, 0), want(ng, 0);
@@ -954,10 +989,8 @@ namespace Collide {
             const double *o = &vfrecv[(size_t) nval * b];
             if (o[0] == 0.0) continue;
             ++got[g];
-            const int owner = bodies[b].owner;
-            unpack_body(o + 1, bodies[b]);
-            bodies[b].owner = owner;
-            if (tally_virial) std::copy(o + 1 + NBODY, o + 1 + NBODY + 6, wvir.begin() + 6 * (size_t) b);
+            unpack_result(o + 1, bodies[b]);
+            if (tally_virial) std::copy(o + 1 + NRES, o + 1 + NRES + 6, wvir.begin() + 6 * (size_t) b);
           }
           long c[2] = {0, 0};
           gsel.assign(nb, 0);
@@ -1027,6 +1060,7 @@ namespace Collide {
           if (ex.rank() == 0) {
             acc[0] += bg;
             acc[2] += nbound;
+            acc[4] += nbound;
           }
           if (tally_virial)
             for (size_t q = 0; q < 6 * (size_t) nb; ++q) body_virial[q] += wvir[q];
@@ -1059,6 +1093,7 @@ namespace Collide {
     stats.repairs = acc[1];
     stats.boundary_bodies = acc[2];
     stats.spanning = acc[3];
+    stats.gathered = acc[4];
     mine = tloc;
     if (ex.rank() == 0) mine.add(tbnd);
   }

@@ -116,7 +116,8 @@ namespace Collide {
     long repairs = 0;            // groups resolved again after a missed pair was joined
     long gathers = 0;            // gathers of boundary groups (windows and their repairs)
     long spanning = 0;           // groups that span ranks resolved where they lie (no gather)
-    long fallbacks = 0;          // windows whose spanning groups were gathered instead
+    long fallbacks = 0;          // windows resolved by the old path (all spanning groups gathered)
+    long gathered = 0;           // bodies gathered (of the boundary bodies), over the windows
   };
 
   class WindowDriver {
@@ -196,6 +197,7 @@ namespace Collide {
     void refresh_foreign(std::vector<Body> &bodies, int nb, Exchange &ex, bool whole);
     long view_edges(std::vector<Body> &bodies, double t0, double t1, const WindowSettings &s,
                     Exchange &ex);
+    void view_groups(int nv, int nb);
     int repair_view(std::vector<Body> &bodies, const Params &p, double t1,
                     CollisionBackend &backend, Exchange &ex, long events_before, int capped,
                     long &repairs, long &largest);
