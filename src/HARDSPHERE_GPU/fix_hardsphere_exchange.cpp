@@ -60,7 +60,8 @@ void LammpsExchange::to_owner(const std::vector<double> &foreign, int nval, int 
   Atom *atom = fix->atom;
   const size_t nall = (size_t) atom->nlocal + atom->nghost;
   if (fix->xfwd.size() < (size_t) nval * atom->nmax) fix->xfwd.resize((size_t) nval * atom->nmax);
-  std::fill(fix->xfwd.begin(), fix->xfwd.begin() + nval * nall, 0.0);
+  // Only the flags need clearing: unpack_reverse_comm() reads a value only under its flag.
+  for (size_t i = 0; i < nall; ++i) fix->xfwd[nval * i] = 0.0;
   const size_t nf = fix->foreign_ghost.size();
   for (size_t f = 0; f < nf; ++f) {
     if (foreign[nval * f] == 0.0) continue;

@@ -744,9 +744,21 @@ namespace Collide {
     std::vector<int> failing;
     for (int pass = 0;; ++pass) {
       if (ex.nranks() > 1) {
-        vsend.assign(lexc.begin(), lexc.begin() + nb);
-        ex.to_foreign(vsend, 1, fexc);
-        for (int k = 0; k < nv - nb; ++k) lexc[nb + k] = fexc[vnode[k]];
+        // Excursions, with what the window's events changed: where this pass finds nothing
+        // to repair, the foreign copies are then up to date for the next window.
+        const int nval = 1 + NDYN;
+        vsend.resize((size_t) nval * nb);
+        for (int b = 0; b < nb; ++b) {
+          vsend[(size_t) nval * b] = lexc[b];
+          pack_dynamic(bodies[b], &vsend[(size_t) nval * b + 1]);
+        }
+        ex.to_foreign(vsend, nval, vrecv);
+        for (int k = 0; k < nv - nb; ++k) {
+          const double *o = &vrecv[(size_t) nval * vnode[k]];
+          lexc[nb + k] = o[0];
+          unpack_dynamic(o + 1, bodies[nb + k]);
+        }
+        fresh = true;
       }
       failing.clear();
       long need = 0;
@@ -787,11 +799,13 @@ namespace Collide {
                                      const std::vector<ForeignNode> &foreign, const Params &p,
                                      const WindowSettings &s, CollisionBackend &backend,
                                      Exchange &ex, double t0, double t1, Tally &tloc, Tally &tbnd,
-                                     int &capped, long (&acc)[5], long &largest)
+                                     int &capped, long (&acc)[5], long &largest, bool edges_made)
   {
     const int nb = (int) bodies.size();
-    start_cached = false;
-    largest = std::max(largest, window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex));
+    if (!edges_made) {
+      start_cached = false;
+      largest = std::max(largest, window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex));
+    }
     // Local groups, each with its own tally (a repair replaces a group's tally).
     if (snap.capacity() < bodies.size()) snap.reserve(bodies.size() + bodies.size() / 8 + 64);
     snap.assign(bodies.begin(), bodies.end());
@@ -816,7 +830,7 @@ namespace Collide {
     // Boundary groups, the same on every rank; repaired until no missed pair is left.
     long bl = 0, bg = 0, nbound = 0, joined_all = 0;
     const Tally tbnd_start = tbnd;
-    for (int pass = 0;; ++pass) {
+    for (int pass = 0; ex.nranks() > 1; ++pass) {
       tbnd = tbnd_start;
       bl = bg = nbound = 0;
       resolve_boundary(bodies, fedges, foreign, p, t1, backend, ex, tbnd, bl, bg, nbound);
@@ -836,7 +850,7 @@ namespace Collide {
       if (gtally[g].events > 0) ++ngroups;
     }
     long c[1] = {cp ? 1L : 0L};
-    ex.sum(c, 1);
+    if (ex.nranks() > 1) ex.sum(c, 1);
     capped = c[0] > 0;
     largest = std::max(largest, bl);
     // The boundary figures are the same on every rank: counted once, on rank 0.
@@ -914,9 +928,30 @@ namespace Collide {
     chooser.start_step(dt);
     int k = 0;
     bool whole = true;    // the next refresh sends whole bodies
+    while (t0 < dt && ex.nranks() == 1) {
+      // One rank: no view, the local groups and their repairs.
+      long largest;
+      start_cached = false;
+      const double t1 = chooser.next(
+          t0, k, dt, s, target,
+          [&](double t) { return window_edges(bodies, edges, fedges, foreign, t0, t, s, ex); },
+          largest);
+      largest_all = std::max(largest_all, largest);
+      int capped = 0;
+      fallback_window(bodies, edges, fedges, foreign, p, s, backend, ex, t0, t1, tloc, tbnd,
+                      capped, acc, largest_all, true);
+      ++k;
+      if (capped) {
+        tloc.capped = 1;
+        break;
+      }
+      t0 = t1;
+    }
     while (t0 < dt) {
-      if (ex.nranks() > 1) refresh_foreign(bodies, nb, ex, whole);
+      // The foreign copies are current where the last window's check brought them.
+      if (whole || !fresh) refresh_foreign(bodies, nb, ex, whole);
       whole = false;
+      fresh = false;
       long largest;
       start_cached = false;    // a new window start: view_edges() computes its start points
       const double t1 = chooser.next(
@@ -1071,7 +1106,7 @@ namespace Collide {
         bodies.resize(nb);    // the foreign copies are made whole again at the next window
         whole = true;
         fallback_window(bodies, edges, fedges, foreign, p, s, backend, ex, t0, t1, tloc, tbnd,
-                        capped, acc, largest_all);
+                        capped, acc, largest_all, false);
         bodies.resize(nv);
       }
       ++k;

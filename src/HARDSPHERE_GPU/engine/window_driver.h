@@ -3,22 +3,41 @@
 
    The caller gives this rank's bodies (at the step start), the candidate pairs of the step
    (every pair that can touch within the step; the caller checks the step's displacement
-   budget afterwards) and the foreign nodes: bodies owned by other ranks that are candidates
-   of a local body.  The driver cuts [0, dt) into windows [t0, t1) and, in each:
+   budget afterwards), the foreign nodes (bodies owned by other ranks, known here through
+   ghosts) with the pairs between a local body and a foreign node, and the pairs between two
+   foreign nodes.  Together they are this rank's *view*.  A foreign node is *complete* when all
+   its candidate partners are in the view (ForeignNode::complete; the caller compares the
+   owner's count of the node's partners with its own).  The driver cuts [0, dt) into windows
+   [t0, t1) and, in each:
 
-   1. gives every body a bound d = max(k |v|, f vmax) (t1 - t0) on how far its drift line will
-      move in the window (k, f: WindowSettings; vmax the fastest drift speed of the step);
-   2. joins the candidate pairs whose gap at t0 is within d_i + d_j: the window's edges;
-   3. resolves each connected component (a "group") by itself with the backend: groups of
-      local bodies here, groups that reach a foreign node ("boundary groups") gathered from
-      every rank and resolved identically on all of them;
-   4. checks the window: a candidate pair that was not joined could only have touched if the
-      two drift lines together moved at least its gap.  Where such a pair joins two local
-      groups, the two are merged and resolved again together from the window start (a
-      "repair"; repeated until no such pair is left).  Where it involves a boundary group or a
-      foreign node, it is joined, the local groups it reaches become part of the boundary
-      groups, and the boundary groups are gathered and resolved again from the window start
-      on every rank, until no such pair is left.  No window or step is ever redone.
+   1. brings every foreign node's body up to date from its owner (Exchange::to_foreign; whole
+      at the step's first window, what events change at the others);
+   2. gives every body of the view a bound d = max(k |v|, f vmax) (t1 - t0) on how far its
+      drift line will move in the window (k, f: WindowSettings; vmax the fastest drift speed of
+      the step) and joins the candidate pairs whose gap at t0 is within d_i + d_j;
+   3. resolves the connected components ("groups") that hold a local body: a group of local
+      bodies, or one that spans ranks and whose foreign nodes are all complete, is resolved
+      here; every rank that holds a body of such a group sees the same bodies and pairs and
+      gets the same result, and keeps its own bodies' results.  A rank that holds a body of a
+      group that it cannot see whole flags that body to the ghosts; a rank that holds another
+      body of the group and sees it whole sends the flagged bodies' results back to their
+      owners (Exchange::to_owner).  A group that no rank holding a body of it sees whole is
+      gathered from every rank (Exchange::allgather) and resolved identically on all of them;
+   4. checks the window over the view: a candidate pair that was not joined could only have
+      touched if the two drift lines together moved at least its gap (foreign nodes'
+      excursions from their owners).  Where such a pair joins groups that every rank holding a
+      body of them sees whole, they are merged and resolved again from the window start (a
+      "repair"; repeated until no such pair is left).  Where it would join any other group, all
+      ranks resolve the window again from its start as before the view: local groups here,
+      every group that reaches a foreign node gathered and resolved on every rank, missed pairs
+      joined to them and gathered again (fallback_window()).  No step is ever redone.
+
+   Collectives per window: one reduction per length tried (the largest group and whether some
+   rank has a group it cannot see whole), one per pass of the check (repairs, old path, event
+   cap), one more where some rank cannot see a group of its own whole (whether a gather is
+   left), and the gather where one is.  Per step two reductions before the windows and two
+   after (the figures of WindowStats).  Tallies: each group's once over the ranks, by the rank
+   of its lowest-ID body among those whose owners resolve it; gathered groups' on rank 0.
 
    Event times depend only on the two bodies' states (core/trajectory.h), never on the window
    or group a pair is in, and every group sees its events in the global time order restricted
@@ -122,13 +141,17 @@ namespace Collide {
 
   class WindowDriver {
    public:
-    /// Resolves the step over `bodies`.  `mine` gets the events of local groups and, on rank
-    /// 0, those of boundary groups.  The caller still checks the step's displacement budget.
+    /// Resolves the step over `bodies`.  `mine` gets the events of the groups this rank
+    /// counts (see above) and, on rank 0, those of gathered groups.  The caller still checks
+    /// the step's displacement budget.  foreign_pairs: candidate pairs of two foreign nodes
+    /// (i, j node indices, the lower ID first).  bodies grows by the view's foreign nodes
+    /// while the step runs (Exchange::to_foreign is given the local bodies' values only).
     /// body_virial (optional; the backend must support WindowWork::body_virial): 6 doubles
     /// per body, to which each body's per-atom virial of the step is added: half of every
     /// pair collision's term, all of a wall collision's, counted once whatever was resolved
     /// again (repairs, boundary gathers).  Pairs in boundary groups add to the local body
-    /// only, so the sum over bodies and ranks is the sum of the ranks' `mine` virials.
+    /// only, so the sum over bodies and ranks is the sum of the ranks' `mine` virials (a
+    /// result sent to an owner carries its body's per-atom virial).
     void run(std::vector<Body> &bodies, const std::vector<Edge> &edges,
              const std::vector<ForeignEdge> &fedges, const std::vector<ForeignNode> &foreign,
              const Params &p, const WindowSettings &s, CollisionBackend &backend, Exchange &ex,
@@ -183,6 +206,7 @@ namespace Collide {
     int nactive = 0;            // view groups [0, nactive) are resolved here
     std::vector<char> gact, ginc;    // per view group: resolved here / has an incomplete node
     bool view_fallback = false;      // some rank's group reaches an incomplete node
+    bool fresh = false;    // the foreign copies hold their owners' state (the check's last pass)
     // Groups of the view gathered (some rank that holds a body of them does not see them
     // whole): gsafe per group: complete here and no body of it in a group some owner cannot
     // see whole (then every rank that holds a body of it resolves it from the view);
@@ -206,7 +230,7 @@ namespace Collide {
                          const std::vector<ForeignNode> &foreign, const Params &p,
                          const WindowSettings &s, CollisionBackend &backend, Exchange &ex,
                          double t0, double t1, Tally &tloc, Tally &tbnd, int &capped,
-                         long (&acc)[5], long &largest);
+                         long (&acc)[5], long &largest, bool edges_made);
 
     long window_edges(std::vector<Body> &bodies, const std::vector<Edge> &edges,
                       const std::vector<ForeignEdge> &fedges,
