@@ -82,8 +82,8 @@ double restitution_arg(const char *arg, LAMMPS *lmp)
 }    // namespace
 
 FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
-    Fix(lmp, narg, arg), serial_order(0), nwindows_user(0), tc_user(-1.0), vmin(0.0), vmin_auto(1),
-    tc_slow(1),
+    Fix(lmp, narg, arg), serial_order(0), spanning_gather(0), nwindows_user(0), tc_user(-1.0),
+    vmin(0.0), vmin_auto(1), tc_slow(1),
     maxevents_user(-1), maxevents_warn(0), overlap_push(0), maxpush(DEFAULT_MAXPUSH),
     reach_user(-1.0), gpu_requested(0), device_request(-1), backend_device(-1), rmax(0.0),
     reach_base(0.0), reach(0.0), reach_raise(0.0), list_cut(0.0), raise_drift(0.0), step_vmax2(0.0),
@@ -204,6 +204,16 @@ void FixHardSphere::parse(int narg, char **arg)
         serial_order = 1;
       else
         error->all(FLERR, "Fix hardsphere: order must be parallel or serial, got {}",
+                   arg[iarg + 1]);
+      iarg += 2;
+    } else if (strcmp(kw, "spanning") == 0) {
+      need(1, kw);
+      if (strcmp(arg[iarg + 1], "view") == 0)
+        spanning_gather = 0;
+      else if (strcmp(arg[iarg + 1], "gather") == 0)
+        spanning_gather = 1;
+      else
+        error->all(FLERR, "Fix hardsphere: spanning must be view or gather, got {}",
                    arg[iarg + 1]);
       iarg += 2;
     } else if (strcmp(kw, "windows") == 0) {

@@ -387,7 +387,7 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
   }
   // On several ranks in the parallel order the pairs between ghosts are wanted too: the step
   // driver resolves a group that spans ranks where all its bodies and pairs are seen.
-  const bool view = comm->nprocs > 1 && !serial_order;
+  const bool view = comm->nprocs > 1 && !serial_order && !spanning_gather;
   // Ghosts too far from every owned body to pair with one are left out: a pair is a candidate
   // within its radii and two step bounds, and the step's check looks within the radii and two
   // excursions, each at most what the ghosts cover (ghost_reach()).  The ghost shell follows
@@ -417,9 +417,7 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
       out2 += e * e;
     }
     const double range = (g[6] + keep) * (1.0 + 1e-9);
-    // (In the view the deeper ghosts count too: the groups that reach them can then be
-    // resolved here.)
-    if (!view && out2 > range * range) continue;
+    if (out2 > range * range) continue;
     srad[np] = g[6];
     sbound[np] = g[9];
     sid[np] = tag[j];
@@ -1118,7 +1116,8 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
     const double t0 = MPI_Wtime();
     if (vflag_atom) bvir.assign(6 * bodies.size(), 0.0);
     driver.run(bodies, edges, efedges, fnodes, p, wsettings, *be, *exchange, mine, stats,
-               vflag_atom ? bvir.data() : nullptr, &ffedges);
+               vflag_atom ? bvir.data() : nullptr,
+               comm->nprocs > 1 && !spanning_gather ? &ffedges : nullptr);
     double xe[3], ve[3];
     for (Body &b : bodies) HSGPU::Collide::end_of_step(b, dt, xe, ve);
     sum_tallies(mine, all);

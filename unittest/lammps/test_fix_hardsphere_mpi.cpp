@@ -428,13 +428,13 @@ void compare_spanning(const std::string &kind, int steps, const std::string &cut
   MPI_Barrier(MPI_COMM_WORLD);
 }
 
-// With the ghost cutoff the fluid benchmark uses (2.5), a third of the spanning groups' atoms
-// are in groups that no rank holding an atom of them sees whole (a 12^3 box is narrow); two
-// diameters deeper, none.
+// With the ghost cutoff the fluid benchmark uses (2.5), a third or more of the spanning groups'
+// atoms are in groups that no rank holding an atom of them sees whole (a 12^3 box is narrow);
+// two diameters deeper, a few percent.
 TEST(FixHardSphereMPI, SpanningGroupsOfADenseFluidResolvedWhereTheyLie)
 {
   compare_spanning("fluid", 100, "2.5", 0.6);
-  compare_spanning("fluid", 100, "4.5", 0.02);
+  compare_spanning("fluid", 100, "4.5", 0.1);
 }
 
 // A settling pile: its touching spheres stay joined however short the window, and the groups

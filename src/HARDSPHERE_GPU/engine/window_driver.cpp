@@ -897,9 +897,13 @@ namespace Collide {
 
     // The view: local bodies [0, nb), foreign nodes [nb, nv); its candidate pairs with the
     // lower ID first.
+    // Without foreign_pairs (or on one rank) there is no view: every window as before it.
+    const bool use_view = ex.nranks() > 1 && foreign_pairs != nullptr;
     nlocal_bodies = nb;
-    xedges.assign(edges.begin(), edges.end());
-    for (const ForeignEdge &fe : fedges) {
+    xedges.clear();
+    if (use_view) xedges.assign(edges.begin(), edges.end());
+    for (size_t q = 0; use_view && q < fedges.size(); ++q) {
+      const ForeignEdge &fe = fedges[q];
       Edge e;
       const int node = slot(fe.node);
       const bool body_first = bodies[fe.body].id < foreign[fe.node].id;
@@ -908,7 +912,7 @@ namespace Collide {
       for (int d = 0; d < 3; ++d) e.shift[d] = body_first ? fe.shift[d] : -fe.shift[d];
       xedges.push_back(e);
     }
-    if (foreign_pairs)
+    if (use_view)
       for (const Edge &fp : *foreign_pairs) {
         Edge e = fp;
         e.i = slot(fp.i);
@@ -928,8 +932,8 @@ namespace Collide {
     chooser.start_step(dt);
     int k = 0;
     bool whole = true;    // the next refresh sends whole bodies
-    while (t0 < dt && ex.nranks() == 1) {
-      // One rank: no view, the local groups and their repairs.
+    while (t0 < dt && !use_view) {
+      // No view: local groups here, boundary groups gathered, as before the view existed.
       long largest;
       start_cached = false;
       const double t1 = chooser.next(
@@ -1003,13 +1007,14 @@ namespace Collide {
         long bl = 0, bg = 0, nbound = 0;
         gather_broken = false;
         if (view_fallback) {
-          // To the owners: flag, result, per-atom virial.
-          const int nval = 1 + NRES + (tally_virial ? 6 : 0);
+          // To the owners: flag, result, per-atom virial (zeros where not tallied: the same
+          // size on every rank, also on one without bodies, whose body_virial is null).
+          const int nval = 1 + NRES + 6;
           vfsend.assign((size_t) nval * nf, 0.0);
           for (int k = 0; k < nv - nb; ++k) {
             if (!vflag[k] || !gact[group_of[nb + k]]) continue;
             double *o = &vfsend[(size_t) nval * vnode[k]];
-            o[0] = 1.0;
+            o[0] = (double) bodies[nb + k].id;    // the flag: the body's ID, checked there
             pack_result(bodies[nb + k], o + 1);
             if (tally_virial)
               std::copy(wvir.begin() + 6 * (size_t) (nb + k), wvir.begin() + 6 * (size_t) (nb + k + 1),
@@ -1017,12 +1022,17 @@ namespace Collide {
           }
           ex.to_owner(vfsend, nval, nb, vfrecv);
           std::vector<int> got(ng, 0), want(ng, 0);
+          bool misrouted = false;
           for (int b = 0; b < nb; ++b) {
             const int g = group_of[b];
             if (!ggat[g]) continue;
             ++want[g];
             const double *o = &vfrecv[(size_t) nval * b];
             if (o[0] == 0.0) continue;
+            if (o[0] != (double) bodies[b].id) {
+              misrouted = true;    // never expected: the old path then
+              continue;
+            }
             ++got[g];
             unpack_result(o + 1, bodies[b]);
             if (tally_virial) std::copy(o + 1 + NRES, o + 1 + NRES + 6, wvir.begin() + 6 * (size_t) b);
@@ -1038,6 +1048,7 @@ namespace Collide {
             if (got[g] == 0) c[0] = 1;
             else if (got[g] != want[g]) c[1] = 1;    // never expected: the old path then
           }
+          if (misrouted) c[1] = 1;
           ex.sum(c, 2);
           if (c[1] > 0) gather_broken = true;
           if (c[0] > 0) {
