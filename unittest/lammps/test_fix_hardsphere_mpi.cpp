@@ -177,6 +177,13 @@ TEST(FixHardSphereMPI, ParallelOrderAgreesWithSingleRank)
   compare("parallel", "parallel");
 }
 
+// Groups spanning ranks always gathered (the resolution before the view, and the view's
+// fall-back): the same bits.
+TEST(FixHardSphereMPI, SpanningGatherAgreesWithSingleRankSerial)
+{
+  compare("parallel spanning gather", "serial");
+}
+
 TEST(FixHardSphereMPI, FixedWindowsAgreeWithSingleRankSerial)
 {
   compare("parallel windows 3", "serial");
