@@ -131,12 +131,13 @@ namespace Collide {
     long largest_group = 0;      // most bodies resolved together in one window
     long groups = 0;             // groups with at least one event, summed over the windows
     long windows = 0;            // windows of the step (of its final pass)
-    long boundary_bodies = 0;    // bodies in boundary groups, summed over the windows
+    long boundary_bodies = 0;    // bodies in groups spanning ranks (each group once), summed
+                                 // over the windows
     long repairs = 0;            // groups resolved again after a missed pair was joined
-    long gathers = 0;            // gathers of boundary groups (windows and their repairs)
-    long spanning = 0;           // groups that span ranks resolved where they lie (no gather)
-    long fallbacks = 0;          // windows resolved by the old path (all spanning groups gathered)
-    long gathered = 0;           // bodies gathered (of the boundary bodies), over the windows
+    long gathers = 0;            // gathers (of groups no rank sees whole; old-path windows)
+    long spanning = 0;           // groups spanning ranks resolved where they lie (no gather)
+    long fallbacks = 0;          // windows on the old path (every spanning group gathered)
+    long gathered = 0;           // bodies gathered (of boundary_bodies), over the windows
   };
 
   class WindowDriver {
