@@ -213,8 +213,7 @@ void FixHardSphere::parse(int narg, char **arg)
       else if (strcmp(arg[iarg + 1], "gather") == 0)
         spanning_gather = 1;
       else
-        error->all(FLERR, "Fix hardsphere: spanning must be view or gather, got {}",
-                   arg[iarg + 1]);
+        error->all(FLERR, "Fix hardsphere: spanning must be view or gather, got {}", arg[iarg + 1]);
       iarg += 2;
     } else if (strcmp(kw, "windows") == 0) {
       need(1, kw);

@@ -441,8 +441,7 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
       sreach[k] = srad[k] + sbound[k];
       rm = std::max(rm, sreach[k]);
     }
-    search.find(spos.data(), sreach.data(), (int) np, view ? (int) np : nb, rm, 1e-9 * rm,
-                spairs);
+    search.find(spos.data(), sreach.data(), (int) np, view ? (int) np : nb, rm, 1e-9 * rm, spairs);
   }
 
   edges.clear();

@@ -369,8 +369,8 @@ Spanning run_dense(MPI_Comm comm, const std::string &kind, const std::string &or
                 "set type 2 diameter 0.8", "set type 2 density 3.0",
                 "variable vx atom 1.5*sin(17.31*id)", "variable vy atom 1.5*cos(7.77*id)",
                 "variable vz atom 1.5*sin(3.3*id+1.1)", "velocity all set v_vx v_vy v_vz",
-                "comm_modify cutoff " + cutoff + " vel yes", "neigh_modify every 1 delay 0 check yes",
-                "fix 1 all nve/sphere"});
+                "comm_modify cutoff " + cutoff + " vel yes",
+                "neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere"});
   if (fluid)
     lmp.commands({"fix hs all hardsphere reach 0.5 order " + order});
   else
@@ -429,8 +429,7 @@ void compare_spanning(const std::string &kind, int steps, const std::string &cut
                 "per step %.3g windows, %.4g atoms in spanning groups, %.4g such groups resolved "
                 "where they lie, %.3g gathers of %.4g atoms, %.3g windows on the old path\n",
                 kind.c_str(), cutoff.c_str(), np, steps, single.collisions, world.windows,
-                world.boundary,
-                world.local, world.gathers, world.gathered, world.fallbacks);
+                world.boundary, world.local, world.gathers, world.gathered, world.fallbacks);
   }
   MPI_Barrier(MPI_COMM_WORLD);
 }

@@ -768,8 +768,7 @@ namespace Collide {
         const int gi = merged.find(group_of[e.i]), gj = merged.find(group_of[e.j]);
         // Pairs of groups resolved here, from the view or gathered (a gathered group's
         // pairs are checked by the owners of its bodies).
-        if (!gact[gi] && !gact[gj] && !(e.i < nb && ggat[gi]) && !(e.j < nb && ggat[gj]))
-          continue;
+        if (!gact[gi] && !gact[gj] && !(e.i < nb && ggat[gi]) && !(e.j < nb && ggat[gj])) continue;
         if (!(lexc[e.i] > bound[e.i]) && !(lexc[e.j] > bound[e.j])) continue;
         const Body &bi = bodies[e.i], &bj = bodies[e.j];
         const double s2 = bi.radius + bj.radius;
@@ -785,8 +784,8 @@ namespace Collide {
       if (c[2] > 0) return 1;
       if (c[0] == 0) return 0;
       if (failing.empty()) continue;    // other ranks repair; nothing here changes
-      capped = redo_merged(bodies, xedges, failing, p, t1, backend, events_before, repairs,
-                           largest);
+      capped =
+          redo_merged(bodies, xedges, failing, p, t1, backend, events_before, repairs, largest);
       for (int g : subgroups) gact[merged.find(g)] = gsafe[merged.find(g)] = 1;
     }
   }
@@ -942,8 +941,8 @@ namespace Collide {
           largest);
       largest_all = std::max(largest_all, largest);
       int capped = 0;
-      fallback_window(bodies, edges, fedges, foreign, p, s, backend, ex, t0, t1, tloc, tbnd,
-                      capped, acc, largest_all, true);
+      fallback_window(bodies, edges, fedges, foreign, p, s, backend, ex, t0, t1, tloc, tbnd, capped,
+                      acc, largest_all, true);
       ++k;
       if (capped) {
         tloc.capped = 1;
@@ -998,8 +997,9 @@ namespace Collide {
         cap.events = tloc.events;
         if (tally_virial) wvir.assign(6 * (size_t) nv, 0.0);
         {
-          WindowWork w{bodies.data(),   nv,      wedges.data(), (int) wedges.size(), gstart.data(),
-                       gmembers.data(), nactive, t1,            gtally.data()};
+          WindowWork w{
+              bodies.data(), nv, wedges.data(), (int) wedges.size(), gstart.data(), gmembers.data(),
+              nactive,       t1, gtally.data()};
           if (tally_virial) w.body_virial = wvir.data();
           backend.resolve(w, p, cap);
         }
@@ -1017,8 +1017,8 @@ namespace Collide {
             o[0] = (double) bodies[nb + k].id;    // the flag: the body's ID, checked there
             pack_result(bodies[nb + k], o + 1);
             if (tally_virial)
-              std::copy(wvir.begin() + 6 * (size_t) (nb + k), wvir.begin() + 6 * (size_t) (nb + k + 1),
-                        o + 1 + NRES);
+              std::copy(wvir.begin() + 6 * (size_t) (nb + k),
+                        wvir.begin() + 6 * (size_t) (nb + k + 1), o + 1 + NRES);
           }
           ex.to_owner(vfsend, nval, nb, vfrecv);
           std::vector<int> got(ng, 0), want(ng, 0);
@@ -1035,7 +1035,8 @@ namespace Collide {
             }
             ++got[g];
             unpack_result(o + 1, bodies[b]);
-            if (tally_virial) std::copy(o + 1 + NRES, o + 1 + NRES + 6, wvir.begin() + 6 * (size_t) b);
+            if (tally_virial)
+              std::copy(o + 1 + NRES, o + 1 + NRES + 6, wvir.begin() + 6 * (size_t) b);
           }
           long c[2] = {0, 0};
           gsel.assign(nb, 0);
@@ -1045,8 +1046,10 @@ namespace Collide {
           }
           for (int g = 0; g < ng; ++g) {
             if (!ggat[g]) continue;
-            if (got[g] == 0) c[0] = 1;
-            else if (got[g] != want[g]) c[1] = 1;    // never expected: the old path then
+            if (got[g] == 0)
+              c[0] = 1;
+            else if (got[g] != want[g])
+              c[1] = 1;    // never expected: the old path then
           }
           if (misrouted) c[1] = 1;
           ex.sum(c, 2);
@@ -1061,8 +1064,8 @@ namespace Collide {
         excursions(bodies, t1);
         merged.reset(ng);
         long repairs = 0, rl = 0;
-        const int r = repair_view(bodies, p, t1, backend, ex, tloc.events,
-                                  cap.capped | tgw.capped, repairs, rl);
+        const int r = repair_view(bodies, p, t1, backend, ex, tloc.events, cap.capped | tgw.capped,
+                                  repairs, rl);
         largest_all = std::max({largest_all, rl, bl});
         if (r < 0) {
           // A repair reaches an incomplete node somewhere: the window again, with the gather.

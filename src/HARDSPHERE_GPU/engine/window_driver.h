@@ -200,7 +200,7 @@ namespace Collide {
     // owner at every window start); its candidate pairs (local, local-foreign, foreign pairs)
     int nlocal_bodies = 0;
     std::vector<Edge> xedges;
-    std::vector<char> vcomplete;    // view node: all its candidate partners are in the view
+    std::vector<char> vcomplete;      // view node: all its candidate partners are in the view
     std::vector<int> vslot, vnode;    // foreign node -> view index (-1: none), and back
     std::vector<double> vsend, vrecv;
     std::vector<char> vroot;    // per union-find root: 1 has a local body, 2 an incomplete node
@@ -213,11 +213,11 @@ namespace Collide {
     // see whole (then every rank that holds a body of it resolves it from the view);
     // gsel per local body: in a gathered group.
     std::vector<char> gsafe, ggat, gsel;
-    std::vector<char> gloc;    // per view group: has a local body
+    std::vector<char> gloc;     // per view group: has a local body
     std::vector<char> vflag;    // view foreign node: its owner does not see its group whole
     std::vector<double> vfsend, vfrecv;    // results to the owners of flagged bodies
-    bool gather_view = false;      // resolve_boundary() over the view's gathered groups
-    bool gather_broken = false;    // a gathered partner was missing (then the old path)
+    bool gather_view = false;              // resolve_boundary() over the view's gathered groups
+    bool gather_broken = false;            // a gathered partner was missing (then the old path)
 
     void refresh_foreign(std::vector<Body> &bodies, int nb, Exchange &ex, bool whole);
     long view_edges(std::vector<Body> &bodies, double t0, double t1, const WindowSettings &s,
