@@ -881,9 +881,12 @@ namespace Collide {
       }
       return vslot[f];
     };
-    long counts[1] = {(long) nb};
-    ex.sum(counts, 1);
+    // (With the count: whether some rank tallies per-atom virials; a rank without bodies has
+    // no buffer for them, and the results sent to owners must be the same size everywhere.)
+    long counts[2] = {(long) nb, tally_virial ? 1L : 0L};
+    ex.sum(counts, 2);
     const long target = WindowChooser::target(s, counts[0]);
+    const bool virial_step = counts[1] > 0;
     // Every body's window bound assumes at least a quarter of the fastest drift speed: a body
     // at rest that is hit moves about as fast as what hit it, and a bound of zero would make
     // every such hit a repair (in a settled pile, of the whole pile).
@@ -1007,9 +1010,8 @@ namespace Collide {
         long bl = 0, bg = 0, nbound = 0;
         gather_broken = false;
         if (view_fallback) {
-          // To the owners: flag, result, per-atom virial (zeros where not tallied: the same
-          // size on every rank, also on one without bodies, whose body_virial is null).
-          const int nval = 1 + NRES + 6;
+          // To the owners: flag, result, per-atom virial on the steps that tally it.
+          const int nval = 1 + NRES + (virial_step ? 6 : 0);
           vfsend.assign((size_t) nval * nf, 0.0);
           for (int k = 0; k < nv - nb; ++k) {
             if (!vflag[k] || !gact[group_of[nb + k]]) continue;
