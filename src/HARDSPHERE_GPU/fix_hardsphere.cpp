@@ -25,6 +25,11 @@
                                         25 the fix's ghost updates, last step
                                         26 bytes the fix's communication brought, last
                                            step, summed over the ranks (ext)
+                                        27 groups spanning ranks resolved where they lie
+                                           (no gather), last step (ext)
+                                        28 windows resolved by the old path (every spanning
+                                           group gathered), last step
+                                        29 atoms gathered (of those in 11), last step (ext)
 ------------------------------------------------------------------------------------- */
 
 #include "fix_hardsphere.h"
@@ -52,6 +57,7 @@
 #include "gpu_device_choice.h"
 #include "lmp_compat.h"
 
+#include <algorithm>
 #include <exception>
 
 #include <cmath>
@@ -64,7 +70,7 @@ namespace {
 
 constexpr double NEVER_COLLIDED = -1.0e30;    // tlast of an atom that never collided
 const char *const FACES[HSGPU::Collide::NFACES] = {"xlo", "xhi", "ylo", "yhi", "zlo", "zhi"};
-constexpr int NVECTOR = 26;
+constexpr int NVECTOR = 29;
 constexpr int DEFAULT_MAXPUSH = 1000;    // overlap push passes before giving up
 constexpr int RESTART_FORMAT = 2;        // global restart data: -format, count, values
 
@@ -113,15 +119,16 @@ double restitution_arg(const char *arg, LAMMPS *lmp)
 }    // namespace
 
 FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
-    Fix(lmp, narg, arg), serial_order(0), nwindows_user(0), tc_user(-1.0), vmin(0.0), vmin_auto(1),
-    tc_slow(1),
+    Fix(lmp, narg, arg), serial_order(0), spanning_gather(0), nwindows_user(0), tc_user(-1.0),
+    vmin(0.0), vmin_auto(1), tc_slow(1),
     maxevents_user(-1), maxevents_warn(0), overlap_push(0), maxpush(DEFAULT_MAXPUSH),
     reach_user(-1.0), gpu_requested(0), device_request(-1), backend_device(-1), friction_on(0),
     disc_user(0), friction_guard(1), inertia(0.4), rmax(0.0),
     reach_base(0.0), reach(0.0), reach_raise(0.0), list_cut(0.0), raise_drift(0.0), step_vmax2(0.0),
     step_amax(0.0), vend2(0.0), maxevents(0), tlast(nullptr), n_step(0.0), n_total(0.0),
     n_wall(0.0), ke_total(0.0), max_events(0.0), events_total(0.0), n_redo(0.0), last_largest(0.0),
-    last_groups(0.0), last_windows(0.0), last_boundary(0.0), last_gathers(0.0), t_search(0.0),
+    last_groups(0.0), last_windows(0.0), last_boundary(0.0), last_gathers(0.0), last_spanning(0.0),
+    last_fallbacks(0.0), last_gathered(0.0), t_search(0.0),
     t_resolve(0.0), t_step(0.0), n_repair(0.0), n_resident(0.0), n_declined(0.0),
     last_candidates(0.0), n_ghost_raise(0.0), bound_floor(0.0), exchange(nullptr), fwd_nval(0),
     n_push(0.0)
@@ -136,7 +143,7 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
   global_freq = 1;
   extvector = -1;
   extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1, 0, 1, 0, 0, 1, 0, 0,
-                             1, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+                             1, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 1, 0, 1};
   virial_global_flag = 1;
   virial_peratom_flag = 1;    // on the steps LAMMPS asks for it (compute stress/atom)
   thermo_virial = 1;
@@ -145,7 +152,10 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
   restart_global = 1;
   restart_peratom = 1;
   create_attribute = 1;
-  comm_forward = NFWD;
+  // The step driver sends whole bodies to the ghosts and back (Exchange::to_foreign,
+  // to_owner).
+  comm_forward = std::max(NFWD, HSGPU::Collide::Exchange::MAX_VALUES);
+  comm_reverse = HSGPU::Collide::Exchange::MAX_VALUES;
   dynamic_group_allow = 0;
   // The fix may ask for a reneighboring (next_reneighbor) to raise the ghost cutoff when the
   // atoms' moves approach what it covers (pre_exchange()).
@@ -285,6 +295,15 @@ void FixHardSphere::parse(int narg, char **arg)
       else
         error->all(FLERR, "Fix hardsphere: order must be parallel or serial, got {}",
                    arg[iarg + 1]);
+      iarg += 2;
+    } else if (strcmp(kw, "spanning") == 0) {
+      need(1, kw);
+      if (strcmp(arg[iarg + 1], "view") == 0)
+        spanning_gather = 0;
+      else if (strcmp(arg[iarg + 1], "gather") == 0)
+        spanning_gather = 1;
+      else
+        error->all(FLERR, "Fix hardsphere: spanning must be view or gather, got {}", arg[iarg + 1]);
       iarg += 2;
     } else if (strcmp(kw, "windows") == 0) {
       need(1, kw);
@@ -718,6 +737,12 @@ double FixHardSphere::compute_vector(int n)
     MPI_Allreduce(&comm_last.bytes, &all, 1, MPI_DOUBLE, MPI_SUM, world);
     return all;
   }
+  case 26:
+    return last_spanning;
+  case 27:
+    return last_fallbacks;
+  case 28:
+    return last_gathered;
   default:
     return 0.0;
   }
@@ -882,6 +907,30 @@ int FixHardSphere::pack_forward_comm(int n, int *list_, double *buf, int, int *)
     for (int q = 0; q < nv; ++q) buf[m++] = g[q];
   }
   return m;
+}
+
+/* Reverse communication (the step driver's to_owner()): values whose flag (first value) is
+   set replace those held; the others are left alone. */
+int FixHardSphere::pack_reverse_comm(int n, int first, double *buf)
+{
+  const int nv = fwd_nval;
+  int m = 0;
+  for (int i = first; i < first + n; ++i) {
+    const double *g = &xfwd[(size_t) nv * i];
+    for (int q = 0; q < nv; ++q) buf[m++] = g[q];
+  }
+  return m;
+}
+
+void FixHardSphere::unpack_reverse_comm(int n, int *list_, double *buf)
+{
+  const int nv = fwd_nval;
+  int m = 0;
+  for (int k = 0; k < n; ++k, m += nv) {
+    if (buf[m] == 0.0) continue;
+    double *g = &xfwd[(size_t) nv * list_[k]];
+    for (int q = 0; q < nv; ++q) g[q] = buf[m + q];
+  }
 }
 
 void FixHardSphere::unpack_forward_comm(int n, int first, double *buf)

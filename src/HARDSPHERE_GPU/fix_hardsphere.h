@@ -53,6 +53,8 @@ class FixHardSphere : public Fix {
   int size_restart(int) override;
   int maxsize_restart() override;
   int pack_forward_comm(int, int *, double *, int, int *) override;
+  int pack_reverse_comm(int, int, double *) override;
+  void unpack_reverse_comm(int, int *, double *) override;
   void unpack_forward_comm(int, int, double *) override;
   double memory_usage() override;
 
@@ -61,6 +63,7 @@ class FixHardSphere : public Fix {
   std::vector<double> epair;    // restitution of type pairs, (ntypes + 1)^2
   HSGPU::Collide::Walls walls;
   int serial_order;         // 1: the seed paper's global loop, 0: time windows and groups
+  int spanning_gather;      // 1: groups spanning ranks always gathered, 0: resolved in the view
   int nwindows_user;        // windows per step, 0: adaptive
   double tc_user;           // TC-model time, < 0: auto (dt / 2)
   double vmin;              // elastic threshold on |v_n|
@@ -110,6 +113,9 @@ class FixHardSphere : public Fix {
   double last_windows;       // time windows of the last step
   double last_boundary;      // atoms in groups that spanned ranks, last step (all windows)
   double last_gathers;       // gathers of the groups that span ranks, last step
+  double last_spanning;      // groups spanning ranks resolved where they lie, last step
+  double last_fallbacks;     // windows resolved by the old path, last step
+  double last_gathered;      // atoms gathered (of those in spanning groups), last step
   double t_search;           // seconds spent in the candidate search, in total
   double t_resolve;          // seconds spent resolving, in total
   double t_step;             // seconds spent in the fix's step (post_integrate), in total
@@ -132,6 +138,7 @@ class FixHardSphere : public Fix {
     bigint steps = 0;
     double pairs = 0.0, events = 0.0, largest = 0.0, windows = 0.0, groups = 0.0;
     double boundary = 0.0, gathers = 0.0, repairs = 0.0, redos = 0.0;
+    double spanning = 0.0, fallbacks = 0.0, gathered = 0.0;
     double t_search = 0.0, t_resolve = 0.0, t_step = 0.0;
     double t_first = 0.0;       // seconds of the run's first step (allocations, page-locking)
     bigint resident = 0;        // steps carried out on the device
@@ -159,6 +166,12 @@ class FixHardSphere : public Fix {
   std::vector<int> foreign_ghost;    // foreign node -> one ghost index of it
   std::vector<HSGPU::Collide::ForeignEdge> efedges;
   std::vector<HSGPU::Collide::ForeignNode> fnodes;
+  // Candidate pairs of two foreign nodes (window_driver.h's view; several ranks, parallel
+  // order): i, j foreign nodes, the lower ID first; and the partner counts that tell which
+  // foreign nodes have all their partners here.
+  std::vector<HSGPU::Collide::Edge> ffedges;
+  std::vector<double> fdeg_local, fdeg;
+  std::vector<int> fdeg_here;
   std::vector<double> spos, srad, sraw, sbound;    // the candidate search's points
   std::vector<double> sboost;        // per owned atom: a bound raised by a step's check
   double bound_floor;                // least step bound of any atom: half the fastest drift
@@ -228,6 +241,7 @@ class FixHardSphere : public Fix {
   int overlap_pass(double drift_dt, int pass, double &moved);
   void setup_backend();
   bool step_exact();
+  void view_completeness();
   void classify();
   void gather_boundary();
   void resolve(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);

@@ -19,6 +19,8 @@ class LammpsExchange : public HSGPU::Collide::Exchange {
   int rank() const override;
   void to_foreign(const std::vector<double> &local, int nval,
                   std::vector<double> &foreign) override;
+  void to_owner(const std::vector<double> &foreign, int nval, int nlocal,
+                std::vector<double> &local) override;
   void allgather(const std::vector<double> &send, std::vector<double> &recv, long &mine) override;
   void max(double *v, int n) override;
   void sum(long *v, int n) override;

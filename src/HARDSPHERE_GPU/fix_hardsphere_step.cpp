@@ -393,7 +393,9 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
     snode[np] = -1;
     sidx[np] = bd.owner;
   }
-  const int nsearch = nb;
+  // On several ranks in the parallel order the pairs between ghosts are wanted too: the step
+  // driver resolves a group that spans ranks where all its bodies and pairs are seen.
+  const bool view = comm->nprocs > 1 && !serial_order && !spanning_gather;
   // Ghosts too far from every owned body to pair with one are left out: a pair is a candidate
   // within its radii and two step bounds, and the step's check looks within the radii and two
   // excursions, each at most what the ghosts cover (ghost_reach()).  The ghost shell follows
@@ -447,17 +449,39 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
       sreach[k] = srad[k] + sbound[k];
       rm = std::max(rm, sreach[k]);
     }
-    search.find(spos.data(), sreach.data(), (int) np, nsearch, rm, 1e-9 * rm, spairs);
+    search.find(spos.data(), sreach.data(), (int) np, view ? (int) np : nb, rm, 1e-9 * rm, spairs);
   }
 
   edges.clear();
   fedges.clear();
   iedges.clear();
+  ffedges.clear();
   bool maybe_overlap = false;
   for (size_t k = 0; k < spairs.size(); k += 2) {
-    const int a = spairs[k], c = spairs[k + 1];    // a is one of my bodies
+    int a = spairs[k], c = spairs[k + 1];    // a < c: a is one of my bodies or a ghost
+    if (sid[a] == sid[c]) continue;          // an atom and its own image
+    if (sbody[a] < 0) {
+      if (sbody[c] < 0) {
+        // Two foreign nodes: a pair of the view only (their owners test it for overlaps).
+        const bool swap = sid[c] < sid[a];
+        const int lo = swap ? c : a, hi = swap ? a : c;
+        double r[3], sh[3];
+        HSGPU::Collide::nearest_image_separation(&sraw[3 * (size_t) lo], &sraw[3 * (size_t) hi],
+                                                 prd, periodic, r, sh);
+        const double range = (srad[lo] + srad[hi]) + (sbound[lo] + sbound[hi]);
+        if (r[0] * r[0] + r[1] * r[1] + r[2] * r[2] > range * range) continue;
+        Edge e;
+        e.i = snode[lo];
+        e.j = snode[hi];
+        for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
+        ffedges.push_back(e);
+        continue;
+      }
+      std::swap(a, c);    // a body (or an image of one) first
+    } else if (a >= nb && sbody[c] >= 0) {
+      continue;    // two images of my atoms: the pair is found from the atom itself
+    }
     const int bi = sbody[a], bj = sbody[c], node = snode[c];
-    if (sid[a] == sid[c]) continue;    // an atom and its own image
     // Canonical orientation: the lower ID first, its separation computed that way round.
     const bool swap = sid[c] < sid[a];
     const int lo = swap ? c : a, hi = swap ? a : c;
@@ -475,7 +499,7 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
       e.i = swap ? bj : bi;
       e.j = swap ? bi : bj;
       for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
-      (c >= nsearch ? iedges : edges).push_back(e);
+      (c >= nb || a >= nb ? iedges : edges).push_back(e);
     } else {
       ForeignEdge fe;
       fe.body = bi;
@@ -510,6 +534,7 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
     efedges[k].node = fedges[k].node;
     for (int d = 0; d < 3; ++d) efedges[k].shift[d] = fedges[k].shift[d];
   }
+  if (view) view_completeness();
 
   // Overlaps: pairs closer than contact, spheres inside a wall.
   int found = 0;
@@ -688,6 +713,36 @@ void FixHardSphere::setup_pre_neighbor()
                    "Fix hardsphere: overlap push separated {} overlaps in {} passes (atoms moved "
                    "at most {:.4g} in all; {} exchanges of atoms between the passes)\n",
                    pushed, pass, total, migrations);
+}
+
+/* Which foreign nodes have all their candidate partners here.  Each owner counts its atom's
+   partners (it finds all of them: the ghosts cover its reach); a rank that counts as many for
+   the atom's foreign node among its own pairs has found every one, since every pair it finds
+   is one the owner finds (the same test on the same values).  A node with a partner beyond
+   the ghosts, or one left out of the search, counts fewer and is incomplete: a group that
+   reaches it is gathered (window_driver.h). */
+void FixHardSphere::view_completeness()
+{
+  std::sort(ffedges.begin(), ffedges.end(),
+            [](const Edge &a, const Edge &b) { return a.i < b.i || (a.i == b.i && a.j < b.j); });
+  ffedges.erase(std::unique(ffedges.begin(), ffedges.end(),
+                            [](const Edge &a, const Edge &b) { return a.i == b.i && a.j == b.j; }),
+                ffedges.end());
+  const int nb = (int) bodies.size(), nf = (int) fnodes.size();
+  fdeg_local.assign(nb, 0.0);
+  for (const Edge &e : edges) {
+    fdeg_local[e.i] += 1.0;
+    fdeg_local[e.j] += 1.0;
+  }
+  for (const ForeignEdge &fe : fedges) fdeg_local[fe.body] += 1.0;
+  exchange->to_foreign(fdeg_local, 1, fdeg);
+  fdeg_here.assign(nf, 0);
+  for (const ForeignEdge &fe : fedges) ++fdeg_here[fe.node];
+  for (const Edge &e : ffedges) {
+    ++fdeg_here[e.i];
+    ++fdeg_here[e.j];
+  }
+  for (int f = 0; f < nf; ++f) fnodes[f].complete = (double) fdeg_here[f] == fdeg[f] ? 1 : 0;
 }
 
 /* Components of the edge graph (foreign nodes included): those touching a foreign node are
@@ -1054,6 +1109,8 @@ void FixHardSphere::step_serial(Tally &mine, Tally &all)
   last_windows = 1.0;
   last_boundary = comm->nprocs > 1 ? (double) atom->natoms : 0.0;
   last_gathers = comm->nprocs > 1 ? 1.0 : 0.0;
+  last_spanning = last_fallbacks = 0.0;
+  last_gathered = last_boundary;
 }
 
 /* Time windows and groups (engine/window_driver.h). */
@@ -1072,7 +1129,8 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
     const double t0 = MPI_Wtime();
     if (vflag_atom) bvir.assign(6 * bodies.size(), 0.0);
     driver.run(bodies, edges, efedges, fnodes, p, wsettings, *be, *exchange, mine, stats,
-               vflag_atom ? bvir.data() : nullptr);
+               vflag_atom ? bvir.data() : nullptr,
+               comm->nprocs > 1 && !spanning_gather ? &ffedges : nullptr);
     double xe[3], ve[3];
     for (Body &b : bodies) HSGPU::Collide::end_of_step(b, dt, xe, ve);
     sum_tallies(mine, all);
@@ -1091,6 +1149,9 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
   last_windows = (double) stats.windows;
   last_boundary = (double) stats.boundary_bodies;
   last_gathers = (double) stats.gathers;
+  last_spanning = (double) stats.spanning;
+  last_fallbacks = (double) stats.fallbacks;
+  last_gathered = (double) stats.gathered;
 }
 
 bool FixHardSphere::resident_usable() const
@@ -1186,7 +1247,7 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
   last_groups = (double) report.stats.groups;
   last_windows = (double) report.stats.windows;
   last_boundary = 0.0;
-  last_gathers = 0.0;
+  last_gathers = last_spanning = last_fallbacks = last_gathered = 0.0;
   // With group all the device also shifted every atom's time of last collision to the end of
   // this step.
   return whole ? 2 : 1;
@@ -1262,6 +1323,9 @@ void FixHardSphere::post_integrate()
   run_sum.groups += last_groups;
   run_sum.boundary += last_boundary;
   run_sum.gathers += last_gathers;
+  run_sum.spanning += last_spanning;
+  run_sum.fallbacks += last_fallbacks;
+  run_sum.gathered += last_gathered;
   comm_last = comm_step;
   run_sum.collectives += comm_step.collectives;
   run_sum.halos += comm_step.halos;
@@ -1287,12 +1351,15 @@ void FixHardSphere::post_run()
                  "events per "
                  "step; largest group {:.0f} atoms, {:.3g} windows and {:.4g} groups per step, "
                  "{:.0f} repairs, {:.0f} steps redone; {:.4g} atoms per step in groups spanning "
-                 "ranks, {:.3g} gathers per step; search {:.4g} s, resolve {:.4g} s; the fix's "
-                 "step {:.4g} ms per step ({:.4g} ms after the first)\n",
+                 "ranks, {:.4g} such groups per step resolved where they lie, {:.3g} gathers "
+                 "per step of {:.4g} atoms ({:.3g} windows per step on the old path); search "
+                 "{:.4g} s, resolve {:.4g} s; the fix's step {:.4g} ms per step ({:.4g} ms after "
+                 "the first)\n",
                  serial_order ? "serial" : "parallel",
                  (serial_order && !resident) ? "cpu" : backend->name(), r.steps, r.pairs / n,
                  r.events / n, r.largest, r.windows / n, r.groups / n, n_repair + r.repairs,
-                 n_redo + r.redos, r.boundary / n, r.gathers / n, t_search + r.t_search,
+                 n_redo + r.redos, r.boundary / n, r.spanning / n, r.gathers / n,
+                 r.gathered / n, r.fallbacks / n, t_search + r.t_search,
                  t_resolve + r.t_resolve, 1e3 * r.t_step / n,
                  r.steps > 1 ? 1e3 * (r.t_step - r.t_first) / (n - 1) : 1e3 * r.t_step);
   if (comm->nprocs > 1)

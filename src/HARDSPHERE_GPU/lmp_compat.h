@@ -50,6 +50,16 @@ namespace HsgpuCompat {
 #endif
   }
 
+  /// Reverse communication of a fix's per-atom data (Fix::pack/unpack_reverse_comm).
+  inline void reverse_comm(Comm *comm, Fix *fix)
+  {
+#if HSGPU_LAMMPS_VERSION >= 20220324
+    comm->reverse_comm(fix);
+#else
+    comm->reverse_comm_fix(fix);
+#endif
+  }
+
 }    // namespace HsgpuCompat
 }    // namespace LAMMPS_NS
 

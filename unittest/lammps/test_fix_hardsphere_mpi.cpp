@@ -179,6 +179,13 @@ TEST(FixHardSphereMPI, ParallelOrderAgreesWithSingleRank)
   compare("parallel", "parallel");
 }
 
+// Groups spanning ranks always gathered (the resolution before the view, and the view's
+// fall-back): the same bits.
+TEST(FixHardSphereMPI, SpanningGatherAgreesWithSingleRankSerial)
+{
+  compare("parallel spanning gather", "serial");
+}
+
 TEST(FixHardSphereMPI, FixedWindowsAgreeWithSingleRankSerial)
 {
   compare("parallel windows 3", "serial");
@@ -324,6 +331,147 @@ TEST(FixHardSphereMPI, CommunicationOfTheStepIsCounted)
     std::printf("[ MPI      ] %d ranks, last step: %.0f collectives, %.0f ghost updates, %.0f "
                 "bytes received\n",
                 np, s.comm[0], s.comm[1], s.comm[2]);
+}
+
+// Issue 13 item 1: groups of atoms that span ranks are resolved where they lie, without the
+// gather.  Two dense scenes, each run in the parallel order on all ranks and in the serial
+// order on rank 0 alone (bitwise equal; the test runs under 1, 2 and 4 ranks, so the rank
+// counts agree with each other too), with the step driver's figures averaged over the steps:
+// f_hs[9] windows, f_hs[11] atoms in spanning groups, f_hs[16] gathers, f_hs[27] spanning
+// groups resolved where they lie, f_hs[28] windows on the old path, f_hs[29] atoms gathered.
+struct Spanning {
+  std::vector<double> x, v, omega;
+  double collisions = 0.0, events = 0.0;
+  double windows = 0.0, boundary = 0.0, gathers = 0.0, local = 0.0, fallbacks = 0.0;
+  double gathered = 0.0;
+};
+
+// kind "fluid": 12^3 elastic spheres of diameter 1 on a simple cubic lattice at packing
+// fraction 0.45, periodic (the fluid and lattice3d benchmarks, smaller); kind "pile": 1000
+// spheres of two sizes dropped onto a floor under gravity, e = 0.7, settling into a pile;
+// kind "rough": the pile with friction (spins carried by every exchange of the view).
+// (Both with LAMMPS's default processor grid: the box's longest side is split first.)
+// Atoms are placed one by one and their velocities set from their IDs (independent of the
+// decomposition).
+Spanning run_dense(MPI_Comm comm, const std::string &kind, const std::string &order, int steps,
+                   const std::string &cutoff)
+{
+  Lammps lmp(comm);
+  const bool fluid = kind == "fluid";
+  // The pile: 20 x 10 x 5 spheres in a box longest in x, so that the ranks split it
+  // sideways.
+  const int nx = fluid ? 12 : 20, ny = fluid ? 12 : 10, nz = fluid ? 12 : 5;
+  const double a = fluid ? std::cbrt(M_PI / (6.0 * 0.45)) : 1.05;
+  const double lx = nx * a, ly = ny * a, lz = fluid ? nz * a : 1.9 * ny * a;
+  lmp.commands({"units lj", "atom_style sphere", "atom_modify map array",
+                fluid ? "boundary p p p" : "boundary p p f",
+                "region box block 0 " + std::to_string(lx) + " 0 " + std::to_string(ly) + " 0 " +
+                    std::to_string(lz),
+                "create_box 2 box"});
+  std::vector<std::string> atoms;
+  for (int iz = 0; iz < nz; ++iz)
+    for (int iy = 0; iy < ny; ++iy)
+      for (int ix = 0; ix < nx; ++ix) {
+        char line[160];
+        std::snprintf(line, sizeof(line), "create_atoms %d single %.17g %.17g %.17g units box",
+                      fluid ? 1 : 1 + (ix + iy + iz) % 2, a * (ix + 0.5), a * (iy + 0.5),
+                      a * (iz + 0.5));
+        atoms.push_back(line);
+      }
+  lmp.commands(atoms);
+  lmp.commands({"set type 1 diameter 1.0", "set type 1 density 1.9098593171027443",
+                "set type 2 diameter 0.8", "set type 2 density 3.0",
+                "variable vx atom 1.5*sin(17.31*id)", "variable vy atom 1.5*cos(7.77*id)",
+                "variable vz atom 1.5*sin(3.3*id+1.1)", "velocity all set v_vx v_vy v_vz",
+                "comm_modify cutoff " + cutoff + " vel yes",
+                "neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere"});
+  if (fluid)
+    lmp.commands({"fix hs all hardsphere reach 0.5 order " + order});
+  else
+    lmp.commands({"fix g all gravity 1.0 vector 0 0 -1",
+                  "fix hs all hardsphere restitution 0.7 wall zlo 0.7 reach 0.5 order " + order +
+                      (kind == "rough" ? " friction 0.5 0.2 wall/friction zlo 0.4 0.0" : "")});
+  const std::string ns = std::to_string(steps);
+  lmp.commands({"timestep 0.01", "thermo 0",
+                "fix avg all ave/time 1 " + ns + " " + ns +
+                    " f_hs[9] f_hs[11] f_hs[16] f_hs[27] f_hs[28] f_hs[29]",
+                "run " + ns});
+  Spanning s;
+  s.x = lmp.gather("x", 3);
+  s.v = lmp.gather("v", 3);
+  s.omega = lmp.gather("omega", 3);
+  s.collisions = lmp.fix_vector("hs", 1);
+  s.events = lmp.fix_vector("hs", 5);
+  s.windows = lmp.fix_vector("avg", 0);
+  s.boundary = lmp.fix_vector("avg", 1);
+  s.gathers = lmp.fix_vector("avg", 2);
+  s.local = lmp.fix_vector("avg", 3);
+  s.fallbacks = lmp.fix_vector("avg", 4);
+  s.gathered = lmp.fix_vector("avg", 5);
+  return s;
+}
+
+// cutoff: the ghost cutoff (the deeper the ghost shell, the more groups some rank holding an
+// atom of them sees whole); share: the largest part of the atoms in spanning groups that may
+// be gathered.
+void compare_spanning(const std::string &kind, int steps, const std::string &cutoff, double share)
+{
+  int me = 0, np = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  const Spanning world = run_dense(MPI_COMM_WORLD, kind, "parallel", steps, cutoff);
+  if (np > 1) {
+    // Spanning groups are resolved where they lie, many per step; the gather is left to the
+    // groups that no rank holding an atom of them sees whole, a small part of the atoms in
+    // spanning groups; a whole window goes back to the old path rarely.
+    EXPECT_GT(world.boundary, 20.0) << kind << ": groups span ranks";
+    EXPECT_GT(world.local, 5.0) << kind << ": spanning groups resolved where they lie";
+    EXPECT_LE(world.gathered, share * world.boundary) << kind << ": atoms gathered";
+    EXPECT_LT(world.fallbacks, 0.2 * world.windows) << kind << ": windows on the old path";
+  } else {
+    EXPECT_EQ(world.gathers, 0.0);
+    EXPECT_EQ(world.gathered, 0.0);
+    EXPECT_EQ(world.local, 0.0);
+  }
+  if (me == 0) {
+    const Spanning single = run_dense(MPI_COMM_SELF, kind, "serial", steps, cutoff);
+    EXPECT_EQ(max_abs_diff(world.x, single.x), 0.0) << kind << ": " << np << " ranks vs serial";
+    EXPECT_EQ(max_abs_diff(world.v, single.v), 0.0) << kind << ": " << np << " ranks vs serial";
+    EXPECT_EQ(max_abs_diff(world.omega, single.omega), 0.0) << kind << ": spins";
+    EXPECT_EQ(world.collisions, single.collisions) << kind;
+    EXPECT_EQ(world.events, single.events) << kind;
+    EXPECT_GT(single.collisions, 20000.0) << kind;
+    std::printf("[ MPI      ] %s, cutoff %s, %d ranks (parallel) vs 1 (serial), %d steps, %.0f "
+                "collisions: "
+                "per step %.3g windows, %.4g atoms in spanning groups, %.4g such groups resolved "
+                "where they lie, %.3g gathers of %.4g atoms, %.3g windows on the old path\n",
+                kind.c_str(), cutoff.c_str(), np, steps, single.collisions, world.windows,
+                world.boundary, world.local, world.gathers, world.gathered, world.fallbacks);
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+}
+
+// With the ghost cutoff the fluid benchmark uses (2.5), a third or more of the spanning groups'
+// atoms are in groups that no rank holding an atom of them sees whole (a 12^3 box is narrow);
+// two diameters deeper, a few percent.
+TEST(FixHardSphereMPI, SpanningGroupsOfADenseFluidResolvedWhereTheyLie)
+{
+  compare_spanning("fluid", 100, "2.5", 0.6);
+  compare_spanning("fluid", 100, "4.5", 0.1);
+}
+
+// A settling pile: its touching spheres stay joined however short the window, and the groups
+// are long; still most are resolved where they lie.
+TEST(FixHardSphereMPI, SpanningGroupsOfAPileResolvedWhereTheyLie)
+{
+  compare_spanning("pile", 300, "4.5", 0.4);
+}
+
+// The same with rough spheres: the view's exchanges (foreign states, results to the owners,
+// the gather) carry the spins.
+TEST(FixHardSphereMPI, SpanningGroupsOfARoughPileResolvedWhereTheyLie)
+{
+  compare_spanning("rough", 300, "4.5", 0.4);
 }
 
 TEST(FixHardSphereMPI, OverlapPushRelaxesRandomPlacementAcrossRanks)

@@ -16,6 +16,7 @@ namespace Collide {
     /// Doubles per body in the boundary exchange (pack_body; 3 more with friction: the spin),
     /// and per partner (id, shift).
     constexpr int NBODY = 29;
+    static_assert(NBODY + 3 <= Exchange::MAX_VALUES, "to_foreign() takes a body's state");
     constexpr int NPARTNER = 4;
 
     /// Gap between two bodies' surfaces at the window start, from their window start points
@@ -61,6 +62,66 @@ namespace Collide {
       o[28] = b.owner;
       if (spin)
         for (int d = 0; d < 3; ++d) o[NBODY + d] = b.omega[d];
+    }
+
+    /// What a step's events change in a body (all a window start needs besides what
+    /// pack_body() brought at the step's first window; w0 and wexc2 are recomputed there):
+    /// ndyn() values, the spin last with friction (spin).
+    constexpr int NDYN = 13;
+    int ndyn(bool spin)
+    {
+      return spin ? NDYN + 3 : NDYN;
+    }
+
+    void pack_dynamic(const Body &b, double *o, bool spin)
+    {
+      for (int d = 0; d < 3; ++d) {
+        o[d] = b.x[d];
+        o[3 + d] = b.v[d];
+        o[6 + d] = b.rest[d];
+      }
+      o[9] = b.tref;
+      o[10] = b.tlast;
+      o[11] = (double) b.last;
+      o[12] = b.nevents;
+      if (spin)
+        for (int d = 0; d < 3; ++d) o[NDYN + d] = b.omega[d];
+    }
+
+    void unpack_dynamic(const double *o, Body &b, bool spin)
+    {
+      for (int d = 0; d < 3; ++d) {
+        b.x[d] = o[d];
+        b.v[d] = o[3 + d];
+        b.rest[d] = (int) o[6 + d];
+      }
+      b.tref = o[9];
+      b.tlast = o[10];
+      b.last = (long) o[11];
+      b.nevents = (int) o[12];
+      if (spin)
+        for (int d = 0; d < 3; ++d) b.omega[d] = o[NDYN + d];
+    }
+
+    /// A window's result for a body: what events change, with the body's excursions:
+    /// nres() values.
+    int nres(bool spin)
+    {
+      return ndyn(spin) + 2;
+    }
+
+    void pack_result(const Body &b, double *o, bool spin)
+    {
+      pack_dynamic(b, o, spin);
+      o[ndyn(spin)] = b.exc2;
+      o[ndyn(spin) + 1] = b.wexc2;
+    }
+
+    void unpack_result(const double *o, Body &b, bool spin)
+    {
+      unpack_dynamic(o, b, spin);
+      b.exc2 = o[ndyn(spin)];
+      b.wexc2 = o[ndyn(spin) + 1];
     }
 
     void unpack_body(const double *o, Body &b, bool spin)
@@ -212,15 +273,18 @@ namespace Collide {
                                       double t1, CollisionBackend &backend, Exchange &ex, Tally &tb,
                                       long &largest, long &ngroups, long &nbound)
   {
-    const int nb = (int) bodies.size();
-    const bool spin = p.friction != 0;
     const int nbody = spin ? NBODY + 3 : NBODY;
+    // Over the view (gather_view): the local bodies of the groups marked in gsel, whose window
+    // edges are all among the view's (each sent by the owner of its lower-ID body).
+    const int nb = gather_view ? nlocal_bodies : (int) bodies.size();
+    auto chosen = [&](int b) { return gather_view ? gsel[b] != 0 : isb[uf.find(b)] != 0; };
     // Partners with a higher ID of each boundary body: window edges only.
     std::vector<int> pstart(nb + 1, 0);
     for (const Edge &e : wedges)
-      if (isb[uf.find(e.i)]) pstart[e.i + 1]++;
-    for (int q : fwin)
-      if (foreign[fedges[q].node].id > bodies[fedges[q].body].id) pstart[fedges[q].body + 1]++;
+      if (e.i < nb && chosen(e.i)) pstart[e.i + 1]++;
+    if (!gather_view)
+      for (int q : fwin)
+        if (foreign[fedges[q].node].id > bodies[fedges[q].body].id) pstart[fedges[q].body + 1]++;
     for (int b = 0; b < nb; ++b) pstart[b + 1] += pstart[b];
     std::vector<double> partners((size_t) NPARTNER * pstart[nb]);
     std::vector<int> pos(pstart.begin(), pstart.end() - 1);
@@ -230,17 +294,18 @@ namespace Collide {
       for (int d = 0; d < 3; ++d) o[1 + d] = shift[d];
     };
     for (const Edge &e : wedges)
-      if (isb[uf.find(e.i)]) put(e.i, bodies[e.j].id, e.shift);
-    for (int q : fwin) {
-      const ForeignEdge &fe = fedges[q];
-      if (foreign[fe.node].id > bodies[fe.body].id) put(fe.body, foreign[fe.node].id, fe.shift);
-    }
+      if (e.i < nb && chosen(e.i)) put(e.i, bodies[e.j].id, e.shift);
+    if (!gather_view)
+      for (int q : fwin) {
+        const ForeignEdge &fe = fedges[q];
+        if (foreign[fe.node].id > bodies[fe.body].id) put(fe.body, foreign[fe.node].id, fe.shift);
+      }
 
     send.clear();
     std::vector<int> &sent = bsent;
     sent.clear();
     for (int b = 0; b < nb; ++b) {
-      if (!isb[uf.find(b)]) continue;
+      if (!chosen(b)) continue;
       const size_t at = send.size();
       send.resize(at + nbody + 1);
       pack_body(bodies[b], &send[at], spin);
@@ -285,6 +350,12 @@ namespace Collide {
       for (int q = 0; q < np; ++q) {
         const double *o = h + nbody + 1 + (size_t) NPARTNER * q;
         const auto it = std::lower_bound(ids.begin(), ids.end(), (long) o[0]);
+        if (it == ids.end() || *it != (long) o[0]) {
+          // A partner nobody sent: the ranks disagreed on a group (never expected; every
+          // rank sees the same gathered data and falls back alike).
+          gather_broken = true;
+          continue;
+        }
         Edge e;
         e.i = k;
         e.j = (int) (it - ids.begin());
@@ -344,6 +415,112 @@ namespace Collide {
     }
   }
 
+  /* Merges the groups that the candidate pairs `failing` (indices into cand) join, and
+     resolves the merged sets again from the window start.  A set counts as a repair here only
+     where its lowest-ID body is local (a set that spans ranks is resolved again on each rank
+     that holds a body of it).  Returns 1 where the event cap stopped it. */
+  int WindowDriver::redo_merged(std::vector<Body> &bodies, const std::vector<Edge> &cand,
+                                const std::vector<int> &failing, const Params &p, double t1,
+                                CollisionBackend &backend, long events_before, long &repairs,
+                                long &largest)
+  {
+    const int ng = nlocal_groups;
+    std::vector<char> redo(ng, 0);
+    // Merge, and take the merged groups back to the window start.
+    for (int q : failing) {
+      ljoined[q] = 1;
+      wedges.push_back(cand[q]);
+      uf.unite(cand[q].i, cand[q].j);
+      merged.unite(merged.find(group_of[cand[q].i]), merged.find(group_of[cand[q].j]));
+    }
+    for (int q : failing) redo[merged.find(group_of[cand[q].i])] = 1;
+    // The merged groups' bodies, compacted (in body order within each), and their edges.
+    subgroups.clear();
+    for (int g = 0; g < ng; ++g)
+      if (redo[merged.find(g)]) subgroups.push_back(g);
+    std::vector<int> root_slot(ng, -1);
+    int nsets = 0;
+    for (int g : subgroups)
+      if (root_slot[merged.find(g)] < 0) root_slot[merged.find(g)] = nsets++;
+    substart.assign(nsets + 1, 0);
+    for (int g : subgroups) substart[root_slot[merged.find(g)] + 1] += gstart[g + 1] - gstart[g];
+    for (int k = 0; k < nsets; ++k) substart[k + 1] += substart[k];
+    submembers.resize(substart[nsets]);
+    {
+      std::vector<int> pos(substart.begin(), substart.end() - 1);
+      for (int g : subgroups)
+        for (int m = gstart[g]; m < gstart[g + 1]; ++m)
+          submembers[pos[root_slot[merged.find(g)]]++] = gmembers[m];
+    }
+    sub.resize(submembers.size());
+    sub_of.resize(bodies.size());
+    for (int k = 0; k < nsets; ++k) {
+      std::sort(submembers.begin() + substart[k], submembers.begin() + substart[k + 1]);
+      largest = std::max(largest, (long) (substart[k + 1] - substart[k]));
+    }
+    for (size_t m = 0; m < submembers.size(); ++m) {
+      const int b = submembers[m];
+      sub[m] = snap[b];
+      sub[m].owner = b;
+      sub_of[b] = (int) m;
+    }
+    // Members of a set occupy one contiguous range: the groups list is the identity.
+    std::vector<int> ident(submembers.size());
+    for (size_t m = 0; m < ident.size(); ++m) ident[m] = (int) m;
+    subedges.clear();
+    for (const Edge &e : wedges) {
+      const int g = group_of[e.i];
+      if (g < 0 || !redo[merged.find(g)]) continue;
+      Edge se = e;
+      se.i = sub_of[e.i];
+      se.j = sub_of[e.j];
+      subedges.push_back(se);
+    }
+    std::vector<Tally> st(nsets);
+    Tally cap;
+    cap.events = events_before;
+    for (int g = 0; g < ng; ++g)
+      if (!redo[merged.find(g)]) cap.events += gtally[g].events;
+    WindowWork w{sub.data(),      (int) sub.size(), subedges.data(), (int) subedges.size(),
+                 substart.data(), ident.data(),     nsets,           t1,
+                 st.data()};
+    if (tally_virial) {
+      subvir.assign(6 * sub.size(), 0.0);
+      w.body_virial = subvir.data();
+    }
+    backend.resolve(w, p, cap);
+    for (int k = 0; k < nsets; ++k) {
+      int low = submembers[substart[k]];
+      for (int m = substart[k] + 1; m < substart[k + 1]; ++m)
+        if (bodies[submembers[m]].id < bodies[low].id) low = submembers[m];
+      if (low < nlocal_bodies) ++repairs;
+    }
+    // Back into place; the merged set's tally goes to its root group.
+    for (size_t m = 0; m < sub.size(); ++m) {
+      const int b = submembers[m];
+      const int owner = bodies[b].owner;
+      bodies[b] = sub[m];
+      bodies[b].owner = owner;
+      if (tally_virial)
+        std::copy(subvir.begin() + 6 * m, subvir.begin() + 6 * (m + 1),
+                  wvir.begin() + 6 * (size_t) b);
+      double pe[3];
+      drift_position(bodies[b], t1, pe);
+      note_excursion(bodies[b], pe);
+      lexc[b] = std::sqrt(bodies[b].wexc2);
+    }
+    for (int g : subgroups) gtally[g] = Tally();
+    for (int g : subgroups) {
+      const int r = merged.find(g);
+      if (r == g) gtally[g] = st[root_slot[r]];
+    }
+    if (cap.capped) {
+      gtally[subgroups[0]].capped = 1;
+      return 1;
+    }
+    return 0;
+  }
+
   /* A candidate pair that was not joined could only have touched if a body of it moved
      further than its bound and the two moved at least the pair's gap together.  For such
      pairs between two local groups the groups are merged and resolved again from the window
@@ -352,10 +529,8 @@ namespace Collide {
                                   const Params &p, double t1, CollisionBackend &backend,
                                   long events_before, long &repairs)
   {
-    const int ng = nlocal_groups;
     long largest = 0;
     std::vector<int> failing;
-    std::vector<char> redo(ng, 0);
     for (int pass = 0;; ++pass) {
       failing.clear();
       for (size_t q = 0; q < edges.size(); ++q) {
@@ -370,94 +545,8 @@ namespace Collide {
         failing.push_back((int) q);
       }
       if (failing.empty()) return largest;
-      // Merge, and take the merged groups back to the window start.
-      std::fill(redo.begin(), redo.end(), 0);
-      for (int q : failing) {
-        ljoined[q] = 1;
-        wedges.push_back(edges[q]);
-        uf.unite(edges[q].i, edges[q].j);
-        merged.unite(merged.find(group_of[edges[q].i]), merged.find(group_of[edges[q].j]));
-      }
-      for (int q : failing) redo[merged.find(group_of[edges[q].i])] = 1;
-      // The merged groups' bodies, compacted (in body order within each), and their edges.
-      subgroups.clear();
-      for (int g = 0; g < ng; ++g)
-        if (redo[merged.find(g)]) subgroups.push_back(g);
-      std::vector<int> root_slot(ng, -1);
-      int nsets = 0;
-      for (int g : subgroups)
-        if (root_slot[merged.find(g)] < 0) root_slot[merged.find(g)] = nsets++;
-      substart.assign(nsets + 1, 0);
-      for (int g : subgroups) substart[root_slot[merged.find(g)] + 1] += gstart[g + 1] - gstart[g];
-      for (int k = 0; k < nsets; ++k) substart[k + 1] += substart[k];
-      submembers.resize(substart[nsets]);
-      {
-        std::vector<int> pos(substart.begin(), substart.end() - 1);
-        for (int g : subgroups)
-          for (int m = gstart[g]; m < gstart[g + 1]; ++m)
-            submembers[pos[root_slot[merged.find(g)]]++] = gmembers[m];
-      }
-      sub.resize(submembers.size());
-      sub_of.resize(bodies.size());
-      for (int k = 0; k < nsets; ++k) {
-        std::sort(submembers.begin() + substart[k], submembers.begin() + substart[k + 1]);
-        largest = std::max(largest, (long) (substart[k + 1] - substart[k]));
-      }
-      for (size_t m = 0; m < submembers.size(); ++m) {
-        const int b = submembers[m];
-        sub[m] = snap[b];
-        sub[m].owner = b;
-        sub_of[b] = (int) m;
-      }
-      // Members of a set occupy one contiguous range: the groups list is the identity.
-      std::vector<int> ident(submembers.size());
-      for (size_t m = 0; m < ident.size(); ++m) ident[m] = (int) m;
-      subedges.clear();
-      for (const Edge &e : wedges) {
-        const int g = group_of[e.i];
-        if (g < 0 || !redo[merged.find(g)]) continue;
-        Edge se = e;
-        se.i = sub_of[e.i];
-        se.j = sub_of[e.j];
-        subedges.push_back(se);
-      }
-      std::vector<Tally> st(nsets);
-      Tally cap;
-      cap.events = events_before;
-      for (int g = 0; g < ng; ++g)
-        if (!redo[merged.find(g)]) cap.events += gtally[g].events;
-      WindowWork w{sub.data(),      (int) sub.size(), subedges.data(), (int) subedges.size(),
-                   substart.data(), ident.data(),     nsets,           t1,
-                   st.data()};
-      if (tally_virial) {
-        subvir.assign(6 * sub.size(), 0.0);
-        w.body_virial = subvir.data();
-      }
-      backend.resolve(w, p, cap);
-      repairs += nsets;
-      // Back into place; the merged set's tally goes to its root group.
-      for (size_t m = 0; m < sub.size(); ++m) {
-        const int b = submembers[m];
-        const int owner = bodies[b].owner;
-        bodies[b] = sub[m];
-        bodies[b].owner = owner;
-        if (tally_virial)
-          std::copy(subvir.begin() + 6 * m, subvir.begin() + 6 * (m + 1),
-                    wvir.begin() + 6 * (size_t) b);
-        double pe[3];
-        drift_position(bodies[b], t1, pe);
-        note_excursion(bodies[b], pe);
-        lexc[b] = std::sqrt(bodies[b].wexc2);
-      }
-      for (int g : subgroups) gtally[g] = Tally();
-      for (int g : subgroups) {
-        const int r = merged.find(g);
-        if (r == g) gtally[g] = st[root_slot[r]];
-      }
-      if (cap.capped) {
-        gtally[subgroups[0]].capped = 1;
+      if (redo_merged(bodies, edges, failing, p, t1, backend, events_before, repairs, largest))
         return largest;
-      }
     }
   }
 
@@ -525,18 +614,299 @@ namespace Collide {
     return c[0];
   }
 
+  /* Every foreign node's body of the view as its owner has it at this window start (a
+     neighbour communication: LAMMPS's forward communication to the ghosts); the whole body at
+     the step's first window, what events change at the others. */
+  void WindowDriver::refresh_foreign(std::vector<Body> &bodies, int nb, Exchange &ex, bool whole)
+  {
+    const int nval = whole ? (spin ? NBODY + 3 : NBODY) : ndyn(spin);
+    vsend.resize((size_t) nval * nb);
+    for (int b = 0; b < nb; ++b) {
+      if (whole)
+        pack_body(bodies[b], &vsend[(size_t) nval * b], spin);
+      else
+        pack_dynamic(bodies[b], &vsend[(size_t) nval * b], spin);
+    }
+    ex.to_foreign(vsend, nval, vrecv);
+    for (size_t k = 0; k < vnode.size(); ++k) {
+      Body &fb = bodies[nb + k];
+      const double *o = &vrecv[(size_t) nval * vnode[k]];
+      if (whole) {
+        unpack_body(o, fb, spin);
+        fb.owner = -1;
+      } else {
+        unpack_dynamic(o, fb, spin);
+      }
+    }
+  }
+
+  /* The window [t0, t1) over the view (local bodies and foreign nodes): start points, bounds,
+     window edges and groups.  Groups of the view are its connected components; those with a
+     local body and no incomplete node come first (nactive of them) and are resolved here, the
+     others are kept for repairs that may join them.  A group with a local body and an
+     incomplete node can only be resolved by the gather: view_fallback says whether any rank
+     has one (the same reduction as the largest group's).  Returns the largest group resolved
+     here over all ranks. */
+  long WindowDriver::view_edges(std::vector<Body> &bodies, double t0, double t1,
+                                const WindowSettings &s, Exchange &ex)
+  {
+    const int nv = (int) bodies.size(), nb = nlocal_bodies;
+    const double delta = t1 - t0;
+    if (!start_cached) {
+      rate.resize(nv);
+      for (int b = 0; b < nv; ++b) {
+        Body &bd = bodies[b];
+        drift_position(bd, t0, bd.w0);
+        bd.wexc2 = 0.0;
+        const double speed = std::sqrt(Contact::dot3(bd.v, bd.v));
+        rate[b] = std::max(s.bound_factor * speed, speed_floor);
+      }
+      egap.resize(xedges.size());
+      emargin.resize(xedges.size());
+      for (size_t q = 0; q < xedges.size(); ++q) {
+        const Edge &e = xedges[q];
+        const Body &bi = bodies[e.i], &bj = bodies[e.j];
+        const double s2 = bi.radius + bj.radius;
+        egap[q] = window_gap(bi.w0, bj.w0, e.shift, s2);
+        emargin[q] = MARGIN * s2;
+      }
+      start_cached = true;
+    }
+    bound.resize(nv);
+    for (int b = 0; b < nv; ++b) bound[b] = rate[b] * delta;
+    wedges.clear();
+    ljoined.assign(xedges.size(), 0);
+    for (size_t q = 0; q < xedges.size(); ++q) {
+      const Edge &e = xedges[q];
+      if (egap[q] <= bound[e.i] + bound[e.j] + emargin[q]) {
+        wedges.push_back(e);
+        ljoined[q] = 1;
+      }
+    }
+    uf.reset(nv);
+    for (const Edge &e : wedges) uf.unite(e.i, e.j);
+    vroot.assign(nv, 0);
+    for (int b = 0; b < nv; ++b) {
+      const int r = uf.find(b);
+      if (b < nb) vroot[r] |= 1;
+      if (!vcomplete[b]) vroot[r] |= 2;
+    }
+    // The largest group with a local body (resolved here or elsewhere), from the roots' sizes;
+    // the groups themselves are made for the chosen window only (view_groups()).
+    fill.assign(nv, 0);
+    long largest = 0;
+    int fb = 0;
+    for (int b = 0; b < nv; ++b) {
+      const int r = uf.find(b);
+      ++fill[r];
+    }
+    for (int b = 0; b < nv; ++b) {
+      if (uf.find(b) != b) continue;
+      if (vroot[b] & 1) largest = std::max(largest, (long) fill[b]);
+      if (vroot[b] == 3) fb = 1;
+    }
+    double l[2] = {(double) largest, (double) fb};
+    ex.max(l, 2);
+    view_fallback = l[1] != 0.0;
+    return (long) l[0];
+  }
+
+  /* The groups of the chosen window (view_edges()' last call): connected components of the
+     view, those with a local body and no incomplete node first (nactive of them, resolved
+     here), then the others (kept for repairs that may join them), each in order of its first
+     body, members in body order. */
+  void WindowDriver::view_groups(int nv, int nb)
+  {
+    // Group numbers: resolved here first, then the others, each in order of their first body.
+    fill.assign(nv, -1);
+    int ng = 0;
+    for (int b = 0; b < nv; ++b) {
+      const int r = uf.find(b);
+      if (vroot[r] == 1 && fill[r] < 0) fill[r] = ng++;
+    }
+    nactive = ng;
+    for (int b = 0; b < nv; ++b) {
+      const int r = uf.find(b);
+      if (fill[r] < 0) fill[r] = ng++;
+    }
+    nlocal_groups = ng;
+    gstart.assign(ng + 1, 0);
+    for (int b = 0; b < nv; ++b) gstart[fill[uf.find(b)] + 1]++;
+    gloc.assign(ng, 0);
+    for (int b = 0; b < nb; ++b) gloc[fill[uf.find(b)]] = 1;
+    for (int g = 0; g < ng; ++g) gstart[g + 1] += gstart[g];
+    gmembers.resize(nv);
+    {
+      std::vector<int> pos(gstart.begin(), gstart.end() - 1);
+      for (int b = 0; b < nv; ++b) gmembers[pos[fill[uf.find(b)]]++] = b;
+    }
+    gact.assign(ng, 0);
+    ginc.assign(ng, 0);
+    for (int g = 0; g < ng; ++g) {
+      gact[g] = g < nactive;
+      ginc[g] = (vroot[uf.find(gmembers[gstart[g]])] & 2) != 0;
+    }
+  }
+
+  /* Repairs over the view (repair_local()'s check and merge): the candidate pairs not joined
+     that touch a group resolved here and could have touched.  Both ends' excursions are
+     known: a foreign node's comes from its owner, which resolved its group (the same bits
+     where it was resolved here too), so every rank that resolves a group finds the same
+     pairs.  A pair that would join a group with an incomplete node needs the gather: returns
+     -1, and every rank does, from one reduction per pass.  Else returns 1 where the event cap
+     stopped some rank, 0 when no pair is left. */
+  int WindowDriver::repair_view(std::vector<Body> &bodies, const Params &p, double t1,
+                                CollisionBackend &backend, Exchange &ex, long events_before,
+                                int capped, long &repairs, long &largest)
+  {
+    const int nv = (int) bodies.size(), nb = nlocal_bodies;
+    std::vector<int> failing;
+    for (int pass = 0;; ++pass) {
+      if (ex.nranks() > 1) {
+        // Excursions, with what the window's events changed: where this pass finds nothing
+        // to repair, the foreign copies are then up to date for the next window.
+        const int nval = 1 + ndyn(spin);
+        vsend.resize((size_t) nval * nb);
+        for (int b = 0; b < nb; ++b) {
+          vsend[(size_t) nval * b] = lexc[b];
+          pack_dynamic(bodies[b], &vsend[(size_t) nval * b + 1], spin);
+        }
+        ex.to_foreign(vsend, nval, vrecv);
+        for (int k = 0; k < nv - nb; ++k) {
+          const double *o = &vrecv[(size_t) nval * vnode[k]];
+          lexc[nb + k] = o[0];
+          unpack_dynamic(o + 1, bodies[nb + k], spin);
+        }
+        fresh = true;
+      }
+      failing.clear();
+      long need = 0;
+      for (size_t q = 0; q < xedges.size(); ++q) {
+        if (ljoined[q]) continue;
+        const Edge &e = xedges[q];
+        const int gi = merged.find(group_of[e.i]), gj = merged.find(group_of[e.j]);
+        // Pairs of groups resolved here, from the view or gathered (a gathered group's
+        // pairs are checked by the owners of its bodies).
+        if (!gact[gi] && !gact[gj] && !(e.i < nb && ggat[gi]) && !(e.j < nb && ggat[gj])) continue;
+        if (!(lexc[e.i] > bound[e.i]) && !(lexc[e.j] > bound[e.j])) continue;
+        const Body &bi = bodies[e.i], &bj = bodies[e.j];
+        const double s2 = bi.radius + bj.radius;
+        if (lexc[e.i] + lexc[e.j] + MARGIN * s2 < window_gap(bi.w0, bj.w0, e.shift, s2)) continue;
+        failing.push_back((int) q);
+        // A merge that some rank holding a body of it could not resolve from its view.
+        if (!gsafe[gi] || !gsafe[gj]) need = 1;
+      }
+      if (gather_broken) need = 1;
+      long c[3] = {(long) failing.size(), need, capped ? 1L : 0L};
+      ex.sum(c, 3);
+      if (c[1] > 0) return -1;
+      if (c[2] > 0) return 1;
+      if (c[0] == 0) return 0;
+      if (failing.empty()) continue;    // other ranks repair; nothing here changes
+      capped =
+          redo_merged(bodies, xedges, failing, p, t1, backend, events_before, repairs, largest);
+      for (int g : subgroups) gact[merged.find(g)] = gsafe[merged.find(g)] = 1;
+    }
+  }
+
+  /* A window resolved as before this view existed: local groups here, groups that reach a
+     foreign node gathered from every rank and resolved on all of them (bodies holds the local
+     bodies only).  Every rank takes this path for the same windows. */
+  void WindowDriver::fallback_window(std::vector<Body> &bodies, const std::vector<Edge> &edges,
+                                     const std::vector<ForeignEdge> &fedges,
+                                     const std::vector<ForeignNode> &foreign, const Params &p,
+                                     const WindowSettings &s, CollisionBackend &backend,
+                                     Exchange &ex, double t0, double t1, Tally &tloc, Tally &tbnd,
+                                     int &capped, long (&acc)[5], long &largest, bool edges_made)
+  {
+    const int nb = (int) bodies.size();
+    if (!edges_made) {
+      start_cached = false;
+      largest = std::max(largest, window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex));
+    }
+    // Local groups, each with its own tally (a repair replaces a group's tally).
+    if (snap.capacity() < bodies.size()) snap.reserve(bodies.size() + bodies.size() / 8 + 64);
+    snap.assign(bodies.begin(), bodies.end());
+    group_of.assign(nb, -1);
+    for (int g = 0; g < nlocal_groups; ++g)
+      for (int m = gstart[g]; m < gstart[g + 1]; ++m) group_of[gmembers[m]] = g;
+    gtally.assign(nlocal_groups, Tally());
+    Tally cap;
+    cap.events = tloc.events;
+    WindowWork w{
+        bodies.data(), nb, wedges.data(), (int) wedges.size(), gstart.data(), gmembers.data(),
+        nlocal_groups, t1, gtally.data()};
+    if (tally_virial) {
+      wvir.assign(6 * (size_t) nb, 0.0);
+      w.body_virial = wvir.data();
+    }
+    backend.resolve(w, p, cap);
+    excursions(bodies, t1);
+    long repairs = 0;
+    merged.reset(nlocal_groups);
+    largest = std::max(largest, repair_local(bodies, edges, p, t1, backend, tloc.events, repairs));
+    // Boundary groups, the same on every rank; repaired until no missed pair is left.
+    long bl = 0, bg = 0, nbound = 0, joined_all = 0;
+    const Tally tbnd_start = tbnd;
+    for (int pass = 0; ex.nranks() > 1; ++pass) {
+      tbnd = tbnd_start;
+      bl = bg = nbound = 0;
+      resolve_boundary(bodies, fedges, foreign, p, t1, backend, ex, tbnd, bl, bg, nbound);
+      excursions(bodies, t1, &bsent);    // the others are as the local pass left them
+      const long joined = join_missed_boundary(bodies, edges, fedges, foreign, ex);
+      ++stats_gathers;
+      if (joined == 0) break;
+      joined_all += joined;
+    }
+    if (tally_virial)
+      for (size_t k = 0; k < 6 * (size_t) nb; ++k) body_virial_out[k] += wvir[k];
+    int cp = cap.capped | tbnd.capped;
+    long ngroups = 0;
+    for (int g = 0; g < nlocal_groups; ++g) {
+      cp |= gtally[g].capped;
+      tloc.add(gtally[g]);
+      if (gtally[g].events > 0) ++ngroups;
+    }
+    long c[1] = {cp ? 1L : 0L};
+    if (ex.nranks() > 1) ex.sum(c, 1);
+    capped = c[0] > 0;
+    largest = std::max(largest, bl);
+    // The boundary figures are the same on every rank: counted once, on rank 0.
+    const bool first = ex.rank() == 0;
+    acc[0] += ngroups + (first ? bg : 0);
+    acc[1] += repairs + (first ? joined_all : 0);
+    acc[2] += first ? nbound : 0;
+    acc[4] += first ? nbound : 0;
+  }
+
   void WindowDriver::run(std::vector<Body> &bodies, const std::vector<Edge> &edges,
                          const std::vector<ForeignEdge> &fedges,
                          const std::vector<ForeignNode> &foreign, const Params &p,
                          const WindowSettings &s, CollisionBackend &backend, Exchange &ex,
-                         Tally &mine, WindowStats &stats, double *body_virial)
+                         Tally &mine, WindowStats &stats, double *body_virial,
+                         const std::vector<Edge> *foreign_pairs)
   {
     const double dt = p.dt;
     tally_virial = body_virial != nullptr;
-    const int nb = (int) bodies.size();
-    long counts[1] = {(long) nb};
-    ex.sum(counts, 1);
+    body_virial_out = body_virial;
+    spin = p.friction != 0;    // rough spheres: the exchanges carry the spins
+    const int nb = (int) bodies.size(), nf = (int) foreign.size();
+    // The view's foreign nodes: those in some candidate pair (the others join nothing).
+    vslot.assign(nf, -1);
+    vnode.clear();
+    auto slot = [&](int f) {
+      if (vslot[f] < 0) {
+        vslot[f] = nb + (int) vnode.size();
+        vnode.push_back(f);
+      }
+      return vslot[f];
+    };
+    // (With the count: whether some rank tallies per-atom virials; a rank without bodies has
+    // no buffer for them, and the results sent to owners must be the same size everywhere.)
+    long counts[2] = {(long) nb, tally_virial ? 1L : 0L};
+    ex.sum(counts, 2);
     const long target = WindowChooser::target(s, counts[0]);
+    const bool virial_step = counts[1] > 0;
     // Every body's window bound assumes at least a quarter of the fastest drift speed: a body
     // at rest that is hit moves about as fast as what hit it, and a bound of zero would make
     // every such hit a repair (in a settled pile, of the whole pile).
@@ -545,82 +915,256 @@ namespace Collide {
     ex.max(&vmax, 1);
     speed_floor = floor_fraction_or(s, 0.25) * std::sqrt(vmax);
     stats = WindowStats();
+    stats_gathers = 0;
+
+    // The view: local bodies [0, nb), foreign nodes [nb, nv); its candidate pairs with the
+    // lower ID first.
+    // Without foreign_pairs (or on one rank) there is no view: every window as before it.
+    const bool use_view = ex.nranks() > 1 && foreign_pairs != nullptr;
+    nlocal_bodies = nb;
+    xedges.clear();
+    if (use_view) xedges.assign(edges.begin(), edges.end());
+    for (size_t q = 0; use_view && q < fedges.size(); ++q) {
+      const ForeignEdge &fe = fedges[q];
+      Edge e;
+      const int node = slot(fe.node);
+      const bool body_first = bodies[fe.body].id < foreign[fe.node].id;
+      e.i = body_first ? fe.body : node;
+      e.j = body_first ? node : fe.body;
+      for (int d = 0; d < 3; ++d) e.shift[d] = body_first ? fe.shift[d] : -fe.shift[d];
+      xedges.push_back(e);
+    }
+    if (use_view)
+      for (const Edge &fp : *foreign_pairs) {
+        Edge e = fp;
+        e.i = slot(fp.i);
+        e.j = slot(fp.j);
+        xedges.push_back(e);
+      }
+    const int nv = nb + (int) vnode.size();
+    vcomplete.assign(nv, 1);
+    for (int k = 0; k < nv - nb; ++k) vcomplete[nb + k] = foreign[vnode[k]].complete ? 1 : 0;
+    bodies.resize(nv);
+
     Tally tloc, tbnd;
+    // groups, repairs, boundary bodies, spanning groups resolved here, bodies gathered
+    long acc[5] = {0, 0, 0, 0, 0};
+    long largest_all = 0;
     double t0 = 0.0;
     chooser.start_step(dt);
     int k = 0;
-    while (t0 < dt) {
+    bool whole = true;    // the next refresh sends whole bodies
+    while (t0 < dt && !use_view) {
+      // No view: local groups here, boundary groups gathered, as before the view existed.
       long largest;
-      start_cached = false;    // a new window start: window_edges() computes its start points
+      start_cached = false;
       const double t1 = chooser.next(
           t0, k, dt, s, target,
           [&](double t) { return window_edges(bodies, edges, fedges, foreign, t0, t, s, ex); },
           largest);
-
-      // Local groups, each with its own tally (a repair replaces a group's tally).
-      // The snapshot keeps its capacity with some slack: on several ranks the number of
-      // bodies changes every step, and a fresh allocation of this size costs page faults.
-      if (snap.capacity() < bodies.size()) snap.reserve(bodies.size() + bodies.size() / 8 + 64);
-      snap.assign(bodies.begin(), bodies.end());
-      group_of.assign(nb, -1);
-      for (int g = 0; g < nlocal_groups; ++g)
-        for (int m = gstart[g]; m < gstart[g + 1]; ++m) group_of[gmembers[m]] = g;
-      gtally.assign(nlocal_groups, Tally());
-      Tally cap;
-      cap.events = tloc.events;
-      WindowWork w{
-          bodies.data(), nb, wedges.data(), (int) wedges.size(), gstart.data(), gmembers.data(),
-          nlocal_groups, t1, gtally.data()};
-      if (tally_virial) {
-        wvir.assign(6 * (size_t) nb, 0.0);
-        w.body_virial = wvir.data();
-      }
-      backend.resolve(w, p, cap);
-      excursions(bodies, t1);
-      long repairs = 0;
-      merged.reset(nlocal_groups);
-      largest =
-          std::max(largest, repair_local(bodies, edges, p, t1, backend, tloc.events, repairs));
-      // Boundary groups, the same on every rank; repaired until no missed pair is left.
-      long bl = 0, bg = 0, nbound = 0;
-      if (ex.nranks() > 1) {
-        const Tally tbnd_start = tbnd;
-        for (int pass = 0;; ++pass) {
-          tbnd = tbnd_start;
-          bl = bg = nbound = 0;
-          resolve_boundary(bodies, fedges, foreign, p, t1, backend, ex, tbnd, bl, bg, nbound);
-          excursions(bodies, t1, &bsent);    // the others are as the local pass left them
-          const long joined = join_missed_boundary(bodies, edges, fedges, foreign, ex);
-          ++stats.gathers;
-          if (joined == 0) break;
-          repairs += joined;
-        }
-      }
-      if (tally_virial)
-        for (size_t k = 0; k < 6 * (size_t) nb; ++k) body_virial[k] += wvir[k];
-      int capped = cap.capped | tbnd.capped;
-      long ngroups = 0;
-      for (int g = 0; g < nlocal_groups; ++g) {
-        capped |= gtally[g].capped;
-        tloc.add(gtally[g]);
-        if (gtally[g].events > 0) ++ngroups;
-      }
-      double flags[2] = {capped ? 1.0 : 0.0, (double) largest};
-      ex.max(flags, 2);
-      long c[2] = {ngroups, repairs};
-      ex.sum(c, 2);
-      stats.largest_group = std::max({stats.largest_group, (long) flags[1], bl});
-      stats.groups += c[0] + bg;
-      stats.boundary_bodies += nbound;
-      stats.repairs += c[1];
+      largest_all = std::max(largest_all, largest);
+      int capped = 0;
+      fallback_window(bodies, edges, fedges, foreign, p, s, backend, ex, t0, t1, tloc, tbnd, capped,
+                      acc, largest_all, true);
       ++k;
-      if (flags[0] != 0.0) {
+      if (capped) {
         tloc.capped = 1;
         break;
       }
       t0 = t1;
     }
+    while (t0 < dt) {
+      // The foreign copies are current where the last window's check brought them.
+      if (whole || !fresh) refresh_foreign(bodies, nb, ex, whole);
+      whole = false;
+      fresh = false;
+      long largest;
+      start_cached = false;    // a new window start: view_edges() computes its start points
+      const double t1 = chooser.next(
+          t0, k, dt, s, target, [&](double t) { return view_edges(bodies, t0, t, s, ex); },
+          largest);
+      largest_all = std::max(largest_all, largest);
+      view_groups(nv, nb);
+      int capped = 0;
+      bool gather = false;    // the whole window by the old path
+      if (!gather) {
+        // The groups resolved here, each with its own tally (a repair replaces a group's).
+        if (snap.capacity() < bodies.size()) snap.reserve(bodies.size() + bodies.size() / 8 + 64);
+        snap.assign(bodies.begin(), bodies.end());
+        const int ng = nlocal_groups;
+        group_of.resize(nv);
+        for (int g = 0; g < ng; ++g)
+          for (int m = gstart[g]; m < gstart[g + 1]; ++m) group_of[gmembers[m]] = g;
+        gtally.assign(ng, Tally());
+        gsafe.assign(ng, 0);
+        ggat.assign(ng, 0);
+        for (int g = 0; g < ng; ++g) gsafe[g] = !ginc[g];
+        vflag.assign(nv - nb, 0);
+        if (view_fallback) {
+          // Some rank does not see a group of its own whole: the bodies of such groups are
+          // flagged to the ghosts.  A rank that holds a body of the group and sees it whole
+          // resolves it and sends the flagged bodies' results to their owners; a group that
+          // no rank holding a body of it sees whole is gathered.
+          vsend.resize(nb);
+          for (int b = 0; b < nb; ++b) vsend[b] = ginc[group_of[b]] ? 1.0 : 0.0;
+          ex.to_foreign(vsend, 1, fexc);
+          for (int k = 0; k < nv - nb; ++k)
+            if (fexc[vnode[k]] != 0.0) {
+              vflag[k] = 1;
+              gsafe[group_of[nb + k]] = 0;
+            }
+          for (int g = 0; g < ng; ++g)
+            if (gloc[g] && ginc[g]) ggat[g] = 1;
+        }
+        Tally cap;
+        cap.events = tloc.events;
+        if (tally_virial) wvir.assign(6 * (size_t) nv, 0.0);
+        {
+          WindowWork w{
+              bodies.data(), nv, wedges.data(), (int) wedges.size(), gstart.data(), gmembers.data(),
+              nactive,       t1, gtally.data()};
+          if (tally_virial) w.body_virial = wvir.data();
+          backend.resolve(w, p, cap);
+        }
+        Tally tgw;
+        long bl = 0, bg = 0, nbound = 0;
+        gather_broken = false;
+        if (view_fallback) {
+          // To the owners: flag, result, per-atom virial on the steps that tally it.
+          const int nr = nres(spin), nval = 1 + nr + (virial_step ? 6 : 0);
+          vfsend.assign((size_t) nval * nf, 0.0);
+          for (int k = 0; k < nv - nb; ++k) {
+            if (!vflag[k] || !gact[group_of[nb + k]]) continue;
+            double *o = &vfsend[(size_t) nval * vnode[k]];
+            o[0] = (double) bodies[nb + k].id;    // the flag: the body's ID, checked there
+            pack_result(bodies[nb + k], o + 1, spin);
+            if (tally_virial)
+              std::copy(wvir.begin() + 6 * (size_t) (nb + k),
+                        wvir.begin() + 6 * (size_t) (nb + k + 1), o + 1 + nr);
+          }
+          ex.to_owner(vfsend, nval, nb, vfrecv);
+          std::vector<int> got(ng, 0), want(ng, 0);
+          bool misrouted = false;
+          for (int b = 0; b < nb; ++b) {
+            const int g = group_of[b];
+            if (!ggat[g]) continue;
+            ++want[g];
+            const double *o = &vfrecv[(size_t) nval * b];
+            if (o[0] == 0.0) continue;
+            if (o[0] != (double) bodies[b].id) {
+              misrouted = true;    // never expected: the old path then
+              continue;
+            }
+            ++got[g];
+            unpack_result(o + 1, bodies[b], spin);
+            if (tally_virial)
+              std::copy(o + 1 + nr, o + 1 + nr + 6, wvir.begin() + 6 * (size_t) b);
+          }
+          long c[2] = {0, 0};
+          gsel.assign(nb, 0);
+          for (int b = 0; b < nb; ++b) {
+            const int g = group_of[b];
+            if (ggat[g] && got[g] == 0) gsel[b] = 1;
+          }
+          for (int g = 0; g < ng; ++g) {
+            if (!ggat[g]) continue;
+            if (got[g] == 0)
+              c[0] = 1;
+            else if (got[g] != want[g])
+              c[1] = 1;    // never expected: the old path then
+          }
+          if (misrouted) c[1] = 1;
+          ex.sum(c, 2);
+          if (c[1] > 0) gather_broken = true;
+          if (c[0] > 0) {
+            gather_view = true;
+            resolve_boundary(bodies, fedges, foreign, p, t1, backend, ex, tgw, bl, bg, nbound);
+            gather_view = false;
+            ++stats_gathers;
+          }
+        }
+        excursions(bodies, t1);
+        merged.reset(ng);
+        long repairs = 0, rl = 0;
+        const int r = repair_view(bodies, p, t1, backend, ex, tloc.events, cap.capped | tgw.capped,
+                                  repairs, rl);
+        largest_all = std::max({largest_all, rl, bl});
+        if (r < 0) {
+          // A repair reaches an incomplete node somewhere: the window again, with the gather.
+          for (int b = 0; b < nv; ++b) bodies[b] = snap[b];
+          gather = true;
+        } else {
+          capped = r;
+          // Each group's tally once over the ranks: by the rank of its lowest-ID body.
+          std::vector<long> low(ng, 0);
+          std::vector<int> lowb(ng, -1);
+          std::vector<char> spans(ng, 0);
+          std::vector<int> size(ng, 0);
+          for (int g = 0; g < ng; ++g) {
+            const int rt = merged.find(g);
+            if (!gact[rt]) continue;
+            for (int m = gstart[g]; m < gstart[g + 1]; ++m) {
+              const int b = gmembers[m];
+              if (b >= nb) spans[rt] = 1;
+              // Among the bodies whose owners resolve the group (not flagged).
+              if (b >= nb && vflag[b - nb]) continue;
+              if (lowb[rt] < 0 || bodies[b].id < low[rt]) {
+                low[rt] = bodies[b].id;
+                lowb[rt] = b;
+              }
+            }
+            size[rt] += gstart[g + 1] - gstart[g];
+          }
+          for (int g = 0; g < ng; ++g) {
+            if (merged.find(g) != g || !gact[g]) continue;
+            if (lowb[g] >= nb) continue;
+            tloc.add(gtally[g]);
+            if (gtally[g].events > 0) ++acc[0];
+            if (spans[g]) {
+              ++acc[3];
+              acc[2] += size[g];
+            }
+          }
+          acc[1] += repairs;
+          // The gathered groups: the same on every rank, counted on rank 0.
+          tbnd.add(tgw);
+          if (ex.rank() == 0) {
+            acc[0] += bg;
+            acc[2] += nbound;
+            acc[4] += nbound;
+          }
+          if (tally_virial)
+            for (size_t q = 0; q < 6 * (size_t) nb; ++q) body_virial[q] += wvir[q];
+        }
+      }
+      if (gather) {
+        ++stats.fallbacks;
+        bodies.resize(nb);    // the foreign copies are made whole again at the next window
+        whole = true;
+        fallback_window(bodies, edges, fedges, foreign, p, s, backend, ex, t0, t1, tloc, tbnd,
+                        capped, acc, largest_all, false);
+        bodies.resize(nv);
+      }
+      ++k;
+      if (capped) {
+        tloc.capped = 1;
+        break;
+      }
+      t0 = t1;
+    }
+    bodies.resize(nb);
     stats.windows = k;
+    stats.gathers = stats_gathers;
+    // The step's figures over all ranks: two reductions per step.
+    double l = (double) largest_all;
+    ex.max(&l, 1);
+    ex.sum(acc, 5);
+    stats.largest_group = (long) l;
+    stats.groups = acc[0];
+    stats.repairs = acc[1];
+    stats.boundary_bodies = acc[2];
+    stats.spanning = acc[3];
+    stats.gathered = acc[4];
     mine = tloc;
     if (ex.rank() == 0) mine.add(tbnd);
   }

@@ -3,22 +3,41 @@
 
    The caller gives this rank's bodies (at the step start), the candidate pairs of the step
    (every pair that can touch within the step; the caller checks the step's displacement
-   budget afterwards) and the foreign nodes: bodies owned by other ranks that are candidates
-   of a local body.  The driver cuts [0, dt) into windows [t0, t1) and, in each:
+   budget afterwards), the foreign nodes (bodies owned by other ranks, known here through
+   ghosts) with the pairs between a local body and a foreign node, and the pairs between two
+   foreign nodes.  Together they are this rank's *view*.  A foreign node is *complete* when all
+   its candidate partners are in the view (ForeignNode::complete; the caller compares the
+   owner's count of the node's partners with its own).  The driver cuts [0, dt) into windows
+   [t0, t1) and, in each:
 
-   1. gives every body a bound d = max(k |v|, f vmax) (t1 - t0) on how far its drift line will
-      move in the window (k, f: WindowSettings; vmax the fastest drift speed of the step);
-   2. joins the candidate pairs whose gap at t0 is within d_i + d_j: the window's edges;
-   3. resolves each connected component (a "group") by itself with the backend: groups of
-      local bodies here, groups that reach a foreign node ("boundary groups") gathered from
-      every rank and resolved identically on all of them;
-   4. checks the window: a candidate pair that was not joined could only have touched if the
-      two drift lines together moved at least its gap.  Where such a pair joins two local
-      groups, the two are merged and resolved again together from the window start (a
-      "repair"; repeated until no such pair is left).  Where it involves a boundary group or a
-      foreign node, it is joined, the local groups it reaches become part of the boundary
-      groups, and the boundary groups are gathered and resolved again from the window start
-      on every rank, until no such pair is left.  No window or step is ever redone.
+   1. brings every foreign node's body up to date from its owner (Exchange::to_foreign; whole
+      at the step's first window, what events change at the others);
+   2. gives every body of the view a bound d = max(k |v|, f vmax) (t1 - t0) on how far its
+      drift line will move in the window (k, f: WindowSettings; vmax the fastest drift speed of
+      the step) and joins the candidate pairs whose gap at t0 is within d_i + d_j;
+   3. resolves the connected components ("groups") that hold a local body: a group of local
+      bodies, or one that spans ranks and whose foreign nodes are all complete, is resolved
+      here; every rank that holds a body of such a group sees the same bodies and pairs and
+      gets the same result, and keeps its own bodies' results.  A rank that holds a body of a
+      group that it cannot see whole flags that body to the ghosts; a rank that holds another
+      body of the group and sees it whole sends the flagged bodies' results back to their
+      owners (Exchange::to_owner).  A group that no rank holding a body of it sees whole is
+      gathered from every rank (Exchange::allgather) and resolved identically on all of them;
+   4. checks the window over the view: a candidate pair that was not joined could only have
+      touched if the two drift lines together moved at least its gap (foreign nodes'
+      excursions from their owners).  Where such a pair joins groups that every rank holding a
+      body of them sees whole, they are merged and resolved again from the window start (a
+      "repair"; repeated until no such pair is left).  Where it would join any other group, all
+      ranks resolve the window again from its start as before the view: local groups here,
+      every group that reaches a foreign node gathered and resolved on every rank, missed pairs
+      joined to them and gathered again (fallback_window()).  No step is ever redone.
+
+   Collectives per window: one reduction per length tried (the largest group and whether some
+   rank has a group it cannot see whole), one per pass of the check (repairs, old path, event
+   cap), one more where some rank cannot see a group of its own whole (whether a gather is
+   left), and the gather where one is.  Per step two reductions before the windows and two
+   after (the figures of WindowStats).  Tallies: each group's once over the ranks, by the rank
+   of its lowest-ID body among those whose owners resolve it; gathered groups' on rank 0.
 
    Event times depend only on the two bodies' states (core/trajectory.h), never on the window
    or group a pair is in, and every group sees its events in the global time order restricted
@@ -50,10 +69,13 @@ namespace Collide {
     double shift[3];
   };
 
-  /// A body owned by another rank, known here through a ghost atom.
+  /// A body owned by another rank, known here through a ghost atom.  complete: every
+  /// candidate partner of it is known here (a local body or a foreign node, with the pair
+  /// among the edges given to run()), so that a group of it can be resolved here.
   struct ForeignNode {
     long id;
     double radius;
+    int complete = 0;
   };
 
   /// What the driver needs from the ranks around it.  SingleRank below is the trivial one.
@@ -62,9 +84,18 @@ namespace Collide {
     virtual ~Exchange() = default;
     virtual int nranks() const = 0;
     virtual int rank() const = 0;
+    /// Most values per body that to_foreign() and to_owner() are given (a body's whole
+    /// state, with a flag and its per-atom virial for to_owner()).
+    static constexpr int MAX_VALUES = 36;
     /// nval values per local body to the foreign nodes (nval per node, from their owner).
     virtual void to_foreign(const std::vector<double> &local, int nval,
                             std::vector<double> &foreign) = 0;
+    /// The other way: nval values per foreign node to its owner, into nval per local body
+    /// (nlocal of them).  The first value of each is a flag: nonzero where the node sends
+    /// something; a local body that nobody sent to gets zeros.  Where several ranks send to
+    /// one body, they send the same values.
+    virtual void to_owner(const std::vector<double> &foreign, int nval, int nlocal,
+                          std::vector<double> &local) = 0;
     /// Every rank's `send`, concatenated in rank order, into `recv`; `mine` is the offset of
     /// this rank's part.
     virtual void allgather(const std::vector<double> &send, std::vector<double> &recv,
@@ -81,6 +112,11 @@ namespace Collide {
     {
       foreign.clear();
     }
+    void to_owner(const std::vector<double> &, int nval, int nlocal,
+                  std::vector<double> &local) override
+    {
+      local.assign((size_t) nval * nlocal, 0.0);
+    }
     void allgather(const std::vector<double> &send, std::vector<double> &recv, long &mine) override
     {
       recv = send;
@@ -95,24 +131,33 @@ namespace Collide {
     long largest_group = 0;      // most bodies resolved together in one window
     long groups = 0;             // groups with at least one event, summed over the windows
     long windows = 0;            // windows of the step (of its final pass)
-    long boundary_bodies = 0;    // bodies in boundary groups, summed over the windows
+    long boundary_bodies = 0;    // bodies in groups spanning ranks (each group once), summed
+                                 // over the windows
     long repairs = 0;            // groups resolved again after a missed pair was joined
-    long gathers = 0;            // gathers of boundary groups (windows and their repairs)
+    long gathers = 0;            // gathers (of groups no rank sees whole; old-path windows)
+    long spanning = 0;           // groups spanning ranks resolved where they lie (no gather)
+    long fallbacks = 0;          // windows on the old path (every spanning group gathered)
+    long gathered = 0;           // bodies gathered (of boundary_bodies), over the windows
   };
 
   class WindowDriver {
    public:
-    /// Resolves the step over `bodies`.  `mine` gets the events of local groups and, on rank
-    /// 0, those of boundary groups.  The caller still checks the step's displacement budget.
+    /// Resolves the step over `bodies`.  `mine` gets the events of the groups this rank
+    /// counts (see above) and, on rank 0, those of gathered groups.  The caller still checks
+    /// the step's displacement budget.  foreign_pairs: candidate pairs of two foreign nodes
+    /// (i, j node indices, the lower ID first).  bodies grows by the view's foreign nodes
+    /// while the step runs (Exchange::to_foreign is given the local bodies' values only).
     /// body_virial (optional; the backend must support WindowWork::body_virial): 6 doubles
     /// per body, to which each body's per-atom virial of the step is added: half of every
     /// pair collision's term, all of a wall collision's, counted once whatever was resolved
     /// again (repairs, boundary gathers).  Pairs in boundary groups add to the local body
-    /// only, so the sum over bodies and ranks is the sum of the ranks' `mine` virials.
+    /// only, so the sum over bodies and ranks is the sum of the ranks' `mine` virials (a
+    /// result sent to an owner carries its body's per-atom virial).
     void run(std::vector<Body> &bodies, const std::vector<Edge> &edges,
              const std::vector<ForeignEdge> &fedges, const std::vector<ForeignNode> &foreign,
              const Params &p, const WindowSettings &s, CollisionBackend &backend, Exchange &ex,
-             Tally &mine, WindowStats &stats, double *body_virial = nullptr);
+             Tally &mine, WindowStats &stats, double *body_virial = nullptr,
+             const std::vector<Edge> *foreign_pairs = nullptr);
 
    private:
     WindowChooser chooser;
@@ -147,7 +192,47 @@ namespace Collide {
     // body (replaced where a body is taken back to the window start), of the repair's
     // compacted bodies and of the gathered boundary bodies
     bool tally_virial = false;
+    bool spin = false;    // rough spheres (Params::friction): the exchanges carry the spins
+    double *body_virial_out = nullptr;    // run()'s body_virial
+    long stats_gathers = 0;
     std::vector<double> wvir, subvir, gvir;
+
+    // the view: the local bodies, then a copy of each foreign node's body (refreshed from its
+    // owner at every window start); its candidate pairs (local, local-foreign, foreign pairs)
+    int nlocal_bodies = 0;
+    std::vector<Edge> xedges;
+    std::vector<char> vcomplete;      // view node: all its candidate partners are in the view
+    std::vector<int> vslot, vnode;    // foreign node -> view index (-1: none), and back
+    std::vector<double> vsend, vrecv;
+    std::vector<char> vroot;    // per union-find root: 1 has a local body, 2 an incomplete node
+    int nactive = 0;            // view groups [0, nactive) are resolved here
+    std::vector<char> gact, ginc;    // per view group: resolved here / has an incomplete node
+    bool view_fallback = false;      // some rank's group reaches an incomplete node
+    bool fresh = false;    // the foreign copies hold their owners' state (the check's last pass)
+    // Groups of the view gathered (some rank that holds a body of them does not see them
+    // whole): gsafe per group: complete here and no body of it in a group some owner cannot
+    // see whole (then every rank that holds a body of it resolves it from the view);
+    // gsel per local body: in a gathered group.
+    std::vector<char> gsafe, ggat, gsel;
+    std::vector<char> gloc;     // per view group: has a local body
+    std::vector<char> vflag;    // view foreign node: its owner does not see its group whole
+    std::vector<double> vfsend, vfrecv;    // results to the owners of flagged bodies
+    bool gather_view = false;              // resolve_boundary() over the view's gathered groups
+    bool gather_broken = false;            // a gathered partner was missing (then the old path)
+
+    void refresh_foreign(std::vector<Body> &bodies, int nb, Exchange &ex, bool whole);
+    long view_edges(std::vector<Body> &bodies, double t0, double t1, const WindowSettings &s,
+                    Exchange &ex);
+    void view_groups(int nv, int nb);
+    int repair_view(std::vector<Body> &bodies, const Params &p, double t1,
+                    CollisionBackend &backend, Exchange &ex, long events_before, int capped,
+                    long &repairs, long &largest);
+    void fallback_window(std::vector<Body> &bodies, const std::vector<Edge> &edges,
+                         const std::vector<ForeignEdge> &fedges,
+                         const std::vector<ForeignNode> &foreign, const Params &p,
+                         const WindowSettings &s, CollisionBackend &backend, Exchange &ex,
+                         double t0, double t1, Tally &tloc, Tally &tbnd, int &capped,
+                         long (&acc)[5], long &largest, bool edges_made);
 
     long window_edges(std::vector<Body> &bodies, const std::vector<Edge> &edges,
                       const std::vector<ForeignEdge> &fedges,
@@ -158,6 +243,9 @@ namespace Collide {
                           CollisionBackend &backend, Exchange &ex, Tally &tb, long &largest,
                           long &ngroups, long &nbound);
     void excursions(std::vector<Body> &bodies, double t1, const std::vector<int> *only = nullptr);
+    int redo_merged(std::vector<Body> &bodies, const std::vector<Edge> &cand,
+                    const std::vector<int> &failing, const Params &p, double t1,
+                    CollisionBackend &backend, long events_before, long &repairs, long &largest);
     long repair_local(std::vector<Body> &bodies, const std::vector<Edge> &edges, const Params &p,
                       double t1, CollisionBackend &backend, long events_before, long &repairs);
     long join_missed_boundary(std::vector<Body> &bodies, const std::vector<Edge> &edges,
