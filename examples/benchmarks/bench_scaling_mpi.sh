@@ -12,7 +12,8 @@
 #
 #   ranks  default "1 2 4 8 16";  per  default 32768;  big  default 1048576;  reps  default 1
 #   (the median of each column is printed; the rank counts take turns within a repetition).
-#   HSGPU_SCALING="weak strong" picks the tables; HSGPU_POUR_STEPS the pour's steps (600).
+#   HSGPU_SCALING="weak strong" picks the tables; HSGPU_POUR_STEPS the pour's steps (600);
+#   HSGPU_SPANNING=view|gather adds that `spanning` keyword to the fix (default: the fix's).
 #
 # Columns: the fix's own time per step after the run's first (its run summary), LAMMPS's Loop
 # time per step, the efficiency of the fix's time (weak: t(P0) N(P) / (t(P) N(P0)) x P0 / P; strong:
@@ -37,8 +38,14 @@ trap 'rm -rf "$work"' EXIT
 cp "$root"/examples/hardsphere/in.lattice3d "$root"/examples/hardsphere/in.pour "$scenes"/in.fluid "$work"/
 for f in "$work"/in.*; do
   sed -i '/^write_dump/d' "$f"
+  if [ -n "${HSGPU_SPANNING:-}" ]; then
+    sed -i -e ':a' -e '/&$/N; s/&\n *//; ta' "$f"    # continued lines joined
+    sed -i "s/^\(fix *hs all hardsphere.*\)$/\1 spanning $HSGPU_SPANNING/" "$f"
+    grep -q "spanning $HSGPU_SPANNING" "$f" || { echo "no spanning keyword added to $f" >&2; exit 2; }
+  fi
   printf '%s\n' 'print "comm: $(f_hs[24]) $(f_hs[25]) $(f_hs[26])"' >> "$f"
 done
+echo "spanning: ${HSGPU_SPANNING:-default}"
 echo "host: $(nproc --all) logical CPUs, $(lscpu | sed -n 's/^Core(s) per socket: *//p') cores per socket x $(lscpu | sed -n 's/^Socket(s): *//p') sockets, $(lscpu | sed -n 's/^Thread(s) per core: *//p') thread(s) per core, $(lscpu | sed -n 's/^Model name: *//p'); $(date -u '+%F %T UTC')"
 echo
 
