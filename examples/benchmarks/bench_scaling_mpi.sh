@@ -11,7 +11,7 @@
 #   examples/benchmarks/bench_scaling_mpi.sh lmp plugin ["ranks"] [per] [big] [reps]
 #
 #   ranks  default "1 2 4 8 16";  per  default 32768;  big  default 1048576;  reps  default 1
-#   (the median of each column is printed; the rank counts take turns within a repetition).
+#   (the median of each column is printed, each row as soon as its runs are done).
 #   HSGPU_SCALING="weak strong" picks the tables; HSGPU_POUR_STEPS the pour's steps (600);
 #   HSGPU_SPANNING=view|gather adds that `spanning` keyword to the fix (default: the fix's).
 #
@@ -89,17 +89,9 @@ size_args() {    # case np -> prints "N args..."
   esac
 }
 
-table() {    # weak|strong cases...
+table() {    # weak|strong cases...  Each row is printed as soon as it is measured.
   local kind=$1; shift
   local c np rep
-  for ((rep = 0; rep < reps; ++rep)); do
-    for c in "$@"; do
-      for np in "${ranks[@]}"; do
-        read -r -a a <<< "$(size_args "$c" "$np")"
-        one "$np" "in.${c#big_}" "log.$c.$np" "${a[@]:1}" >> "$work/rows.$c.$np"
-      done
-    done
-  done
   echo "$hdr"
   echo "$rul"
   for c in "$@"; do
@@ -107,6 +99,10 @@ table() {    # weak|strong cases...
     for np in "${ranks[@]}"; do
       read -r -a a <<< "$(size_args "$c" "$np")"
       local n=${a[0]} m=()
+      : > "$work/rows.$c.$np"
+      for ((rep = 0; rep < reps; ++rep)); do
+        one "$np" "in.${c#big_}" "log.$c.$np" "${a[@]:1}" >> "$work/rows.$c.$np"
+      done
       for k in 1 2 3 4 5 6 7; do m+=("$(awk -v k=$k '{print $k}' "$work/rows.$c.$np" | median)"); done
       [ -n "$base" ] || { base=${m[0]}; bn=$n; bp=$np; }
       awk -v lab="${c#big_}" -v n="$n" -v np="$np" -v kind="$kind" -v b="$base" -v bn="$bn" -v bp="$bp" \

@@ -119,7 +119,7 @@ double restitution_arg(const char *arg, LAMMPS *lmp)
 }    // namespace
 
 FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
-    Fix(lmp, narg, arg), serial_order(0), spanning_gather(0), nwindows_user(0), tc_user(-1.0),
+    Fix(lmp, narg, arg), serial_order(0), spanning_gather(1), nwindows_user(0), tc_user(-1.0),
     vmin(0.0), vmin_auto(1), tc_slow(1),
     maxevents_user(-1), maxevents_warn(0), overlap_push(0), maxpush(DEFAULT_MAXPUSH),
     reach_user(-1.0), gpu_requested(0), device_request(-1), backend_device(-1), friction_on(0),

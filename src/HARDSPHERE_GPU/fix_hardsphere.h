@@ -63,7 +63,8 @@ class FixHardSphere : public Fix {
   std::vector<double> epair;    // restitution of type pairs, (ntypes + 1)^2
   HSGPU::Collide::Walls walls;
   int serial_order;         // 1: the seed paper's global loop, 0: time windows and groups
-  int spanning_gather;      // 1: groups spanning ranks always gathered, 0: resolved in the view
+  int spanning_gather;      // 1: groups spanning ranks always gathered (default), 0: resolved
+                            // in the view (spanning view)
   int nwindows_user;        // windows per step, 0: adaptive
   double tc_user;           // TC-model time, < 0: auto (dt / 2)
   double vmin;              // elastic threshold on |v_n|

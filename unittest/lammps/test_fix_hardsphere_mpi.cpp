@@ -179,11 +179,16 @@ TEST(FixHardSphereMPI, ParallelOrderAgreesWithSingleRank)
   compare("parallel", "parallel");
 }
 
-// Groups spanning ranks always gathered (the resolution before the view, and the view's
-// fall-back): the same bits.
+// Groups spanning ranks always gathered (the default; the view's fall-back) and resolved in the
+// view: the same bits.
 TEST(FixHardSphereMPI, SpanningGatherAgreesWithSingleRankSerial)
 {
   compare("parallel spanning gather", "serial");
+}
+
+TEST(FixHardSphereMPI, SpanningViewAgreesWithSingleRankSerial)
+{
+  compare("parallel spanning view", "serial");
 }
 
 TEST(FixHardSphereMPI, FixedWindowsAgreeWithSingleRankSerial)
@@ -386,10 +391,11 @@ Spanning run_dense(MPI_Comm comm, const std::string &kind, const std::string &or
                 "comm_modify cutoff " + cutoff + " vel yes",
                 "neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere"});
   if (fluid)
-    lmp.commands({"fix hs all hardsphere reach 0.5 order " + order});
+    lmp.commands({"fix hs all hardsphere reach 0.5 spanning view order " + order});
   else
     lmp.commands({"fix g all gravity 1.0 vector 0 0 -1",
-                  "fix hs all hardsphere restitution 0.7 wall zlo 0.7 reach 0.5 order " + order +
+                  "fix hs all hardsphere restitution 0.7 wall zlo 0.7 reach 0.5 spanning view order " +
+                      order +
                       (kind == "rough" ? " friction 0.5 0.2 wall/friction zlo 0.4 0.0" : "")});
   const std::string ns = std::to_string(steps);
   lmp.commands({"timestep 0.01", "thermo 0",
