@@ -154,7 +154,8 @@ TEST(FixHardSphereGpu, DenseFluidEqualsCpu)
 
 // A poured inelastic pile of two sizes that comes to rest on the floor: resting contacts,
 // the TC guard, walls.
-TEST(FixHardSphereGpu, PouredInelasticPileEqualsCpu)
+// A block of two sizes dropped onto the floor of a box periodic in x and y.
+std::vector<std::string> poured_block()
 {
   std::vector<std::string> s = SPHERES;
   s.insert(s.end(), {"region box block 0 9.6 0 9.6 0 30 units box", "create_box 2 box",
@@ -165,7 +166,12 @@ TEST(FixHardSphereGpu, PouredInelasticPileEqualsCpu)
                      "velocity all create 0.05 4928459 loop geom", "comm_modify vel yes",
                      "neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere",
                      "fix g all gravity 1.0 vector 0 0 -1", "timestep 0.01"});
-  expect_gpu_equals_cpu("poured pile", s,
+  return s;
+}
+
+TEST(FixHardSphereGpu, PouredInelasticPileEqualsCpu)
+{
+  expect_gpu_equals_cpu("poured pile", poured_block(),
                         "fix hs all hardsphere restitution 0.6 restitution/pair 1 2 0.5 "
                         "wall zlo 0.5 wall zhi 0.5",
                         "run 600", 10000);
@@ -175,17 +181,8 @@ TEST(FixHardSphereGpu, PouredInelasticPileEqualsCpu)
 // modes): Walton's rule on the device, the angular velocities up and back.
 TEST(FixHardSphereGpu, RoughPouredPileEqualsCpu)
 {
-  std::vector<std::string> s = SPHERES;
-  s.insert(s.end(), {"region box block 0 9.6 0 9.6 0 30 units box", "create_box 2 box",
-                     "lattice sc 0.5787037037037037 origin 0.5 0.5 0.5",    // spacing 1.2
-                     "region block block 0 9.6 0 9.6 4 16 units box", "create_atoms 1 region block",
-                     "set type 1 type/fraction 2 0.4 20261121", "set type 1 diameter 1.0",
-                     "set type 2 diameter 0.8", "set group all density 1.9",
-                     "velocity all create 0.05 4928459 loop geom", "comm_modify vel yes",
-                     "neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere",
-                     "fix g all gravity 1.0 vector 0 0 -1", "timestep 0.01"});
   for (const char *guard : {"elastic", "none"})
-    expect_gpu_equals_cpu(guard, s,
+    expect_gpu_equals_cpu(guard, poured_block(),
                           std::string("fix hs all hardsphere restitution 0.6 restitution/pair 1 2 "
                                       "0.5 friction 0.5 0.2 friction/pair 1 2 0.3 -0.1 wall zlo "
                                       "0.5 wall zhi 0.5 wall/friction zlo 0.4 0.0 friction/guard ") +
