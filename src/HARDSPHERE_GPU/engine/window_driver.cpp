@@ -183,6 +183,33 @@ namespace Collide {
 
   }    // namespace
 
+  /* The window's start points (w0) of bodies[0 .. n), their bound rates and the gaps of
+     `edges` there: they depend on t0 only, so the chooser's tries of one window (several ends
+     t1) compute them once (start_cached). */
+  void WindowDriver::start_points(std::vector<Body> &bodies, int n, const std::vector<Edge> &edges,
+                                  double t0, const WindowSettings &s)
+  {
+    if (start_cached) return;
+    rate.resize(n);
+    for (int b = 0; b < n; ++b) {
+      Body &bd = bodies[b];
+      drift_position(bd, t0, bd.w0);
+      bd.wexc2 = 0.0;
+      const double speed = std::sqrt(Contact::dot3(bd.v, bd.v));
+      rate[b] = std::max(s.bound_factor * speed, speed_floor);
+    }
+    egap.resize(edges.size());
+    emargin.resize(edges.size());
+    for (size_t q = 0; q < edges.size(); ++q) {
+      const Edge &e = edges[q];
+      const Body &bi = bodies[e.i], &bj = bodies[e.j];
+      const double s2 = bi.radius + bj.radius;
+      egap[q] = window_gap(bi.w0, bj.w0, e.shift, s2);
+      emargin[q] = MARGIN * s2;
+    }
+    start_cached = true;
+  }
+
   /* The window [t0, t1): window start points, bounds, the window's edges and the local groups
      (gstart/gmembers; boundary groups are left out, their roots flagged in isb).  Returns the
      largest local group over all ranks. */
@@ -193,28 +220,7 @@ namespace Collide {
   {
     const int nb = (int) bodies.size(), nf = (int) foreign.size();
     const double delta = t1 - t0;
-    // The window's start points, the bodies' bound rates and the edges' gaps there depend on
-    // t0 only: the chooser's tries of one window (several ends t1) compute them once.
-    if (!start_cached) {
-      rate.resize(nb);
-      for (int b = 0; b < nb; ++b) {
-        Body &bd = bodies[b];
-        drift_position(bd, t0, bd.w0);
-        bd.wexc2 = 0.0;
-        const double speed = std::sqrt(Contact::dot3(bd.v, bd.v));
-        rate[b] = std::max(s.bound_factor * speed, speed_floor);
-      }
-      egap.resize(edges.size());
-      emargin.resize(edges.size());
-      for (size_t q = 0; q < edges.size(); ++q) {
-        const Edge &e = edges[q];
-        const Body &bi = bodies[e.i], &bj = bodies[e.j];
-        const double s2 = bi.radius + bj.radius;
-        egap[q] = window_gap(bi.w0, bj.w0, e.shift, s2);
-        emargin[q] = MARGIN * s2;
-      }
-      start_cached = true;
-    }
+    start_points(bodies, nb, edges, t0, s);
     bound.resize(nb);
     wstate.resize((size_t) 4 * nb);
     for (int b = 0; b < nb; ++b) {
@@ -652,26 +658,7 @@ namespace Collide {
   {
     const int nv = (int) bodies.size(), nb = nlocal_bodies;
     const double delta = t1 - t0;
-    if (!start_cached) {
-      rate.resize(nv);
-      for (int b = 0; b < nv; ++b) {
-        Body &bd = bodies[b];
-        drift_position(bd, t0, bd.w0);
-        bd.wexc2 = 0.0;
-        const double speed = std::sqrt(Contact::dot3(bd.v, bd.v));
-        rate[b] = std::max(s.bound_factor * speed, speed_floor);
-      }
-      egap.resize(xedges.size());
-      emargin.resize(xedges.size());
-      for (size_t q = 0; q < xedges.size(); ++q) {
-        const Edge &e = xedges[q];
-        const Body &bi = bodies[e.i], &bj = bodies[e.j];
-        const double s2 = bi.radius + bj.radius;
-        egap[q] = window_gap(bi.w0, bj.w0, e.shift, s2);
-        emargin[q] = MARGIN * s2;
-      }
-      start_cached = true;
-    }
+    start_points(bodies, nv, xedges, t0, s);
     bound.resize(nv);
     for (int b = 0; b < nv; ++b) bound[b] = rate[b] * delta;
     wedges.clear();
