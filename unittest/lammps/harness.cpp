@@ -7,11 +7,30 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <stdexcept>
 #include <cstring>
 
 namespace hsgpu_test {
+
+double max_abs_diff(const std::vector<double> &a, const std::vector<double> &b)
+{
+  if (a.size() != b.size()) return INFINITY;
+  double w = 0.0;
+  for (size_t i = 0; i < a.size(); ++i) w = std::max(w, std::fabs(a[i] - b[i]));
+  return w;
+}
+
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wformat-nonliteral"
+std::string fmt(const char *format, double a, double b, double c, double d)
+{
+  char buf[512];
+  std::snprintf(buf, sizeof(buf), format, a, b, c, d);
+  return buf;
+}
+#pragma GCC diagnostic pop
 
 double closest_pair_gap(const std::vector<double> &x, double diameter, const double period[3])
 {

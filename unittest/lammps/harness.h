@@ -59,6 +59,12 @@ const char *plugin_path();
 // period[d] > 0.  Negative: an overlap.
 double closest_pair_gap(const std::vector<double> &x, double diameter, const double period[3]);
 
+// The largest |a[i] - b[i]|; infinite where the sizes differ.
+double max_abs_diff(const std::vector<double> &a, const std::vector<double> &b);
+
+// printf-style formatting of input lines, up to four numbers (formats are the tests' literals).
+std::string fmt(const char *format, double a = 0, double b = 0, double c = 0, double d = 0);
+
 }    // namespace hsgpu_test
 
 #endif

@@ -16,20 +16,11 @@
 #include <vector>
 
 using hsgpu_test::Lammps;
+using hsgpu_test::max_abs_diff;
+using hsgpu_test::fmt;
 using ::testing::HasSubstr;
 
 namespace {
-
-// printf-style formatting of input lines (the formats are the literals below).
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wformat-nonliteral"
-std::string fmt(const char *format, double a = 0, double b = 0, double c = 0, double d = 0)
-{
-  char buf[512];
-  std::snprintf(buf, sizeof(buf), format, a, b, c, d);
-  return buf;
-}
-#pragma GCC diagnostic pop
 
 // Box [-10,10]^3, given boundary; sphere i at x[i] with velocity v[i], diameter dia[i], mass m[i].
 struct Spheres {
@@ -72,13 +63,6 @@ Spheres head_on_pair()
   s.dia = {1, 1};
   s.m = {1, 3};
   return s;
-}
-
-double max_abs_diff(const std::vector<double> &a, const std::vector<double> &b)
-{
-  double w = 0.0;
-  for (size_t i = 0; i < a.size(); ++i) w = std::max(w, std::fabs(a[i] - b[i]));
-  return w;
 }
 
 }    // namespace

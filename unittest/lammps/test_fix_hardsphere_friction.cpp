@@ -13,26 +13,11 @@
 #include <vector>
 
 using hsgpu_test::Lammps;
+using hsgpu_test::max_abs_diff;
+using hsgpu_test::fmt;
 using ::testing::HasSubstr;
 
 namespace {
-
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wformat-nonliteral"
-std::string fmt(const char *format, double a = 0, double b = 0, double c = 0, double d = 0)
-{
-  char buf[512];
-  std::snprintf(buf, sizeof(buf), format, a, b, c, d);
-  return buf;
-}
-#pragma GCC diagnostic pop
-
-double max_abs_diff(const std::vector<double> &a, const std::vector<double> &b)
-{
-  double w = 0.0;
-  for (size_t i = 0; i < a.size(); ++i) w = std::max(w, std::fabs(a[i] - b[i]));
-  return w;
-}
 
 struct Ball {
   double x, z, vx, vz, wy;

@@ -15,6 +15,7 @@
 #include <vector>
 
 using hsgpu_test::Lammps;
+using hsgpu_test::max_abs_diff;
 
 namespace {
 
@@ -36,13 +37,6 @@ Result run(const std::vector<std::string> &setup, const std::string &fix, const 
   if (spin) r.omega = lmp.gather("omega", 3);
   for (int i = 0; i < 21; ++i) r.f.push_back(lmp.fix_vector("hs", i));
   return r;
-}
-
-double max_abs_diff(const std::vector<double> &a, const std::vector<double> &b)
-{
-  double w = 0.0;
-  for (size_t i = 0; i < a.size(); ++i) w = std::max(w, std::fabs(a[i] - b[i]));
-  return w;
 }
 
 void expect_gpu_equals_cpu(const char *name, const std::vector<std::string> &setup,

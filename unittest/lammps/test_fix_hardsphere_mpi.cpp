@@ -16,6 +16,7 @@
 #include <vector>
 
 using hsgpu_test::Lammps;
+using hsgpu_test::max_abs_diff;
 using ::testing::HasSubstr;
 
 namespace {
@@ -94,13 +95,6 @@ Snapshot run_on(MPI_Comm comm, const std::string &order, int steps, bool pair_gr
   for (int i = 0; i < 3; ++i) s.comm[i] = lmp.fix_vector("hs", 23 + i);
   s.press = lmp.compute_scalar("p");
   return s;
-}
-
-double max_abs_diff(const std::vector<double> &a, const std::vector<double> &b)
-{
-  double w = 0.0;
-  for (size_t i = 0; i < a.size(); ++i) w = std::max(w, std::fabs(a[i] - b[i]));
-  return w;
 }
 
 void compare(const std::string &world_order, const std::string &single_order,

@@ -17,6 +17,7 @@
 #include <vector>
 
 using hsgpu_test::Lammps;
+using hsgpu_test::max_abs_diff;
 using namespace hsgpu_hard;
 
 namespace {
@@ -46,14 +47,6 @@ State state_of(Lammps &lmp, const Scene &s)
   lmp.box(lo, hi, per);
   st.gap = closest_gap(st.x, lmp.gather("radius", 1), lo, hi, per, s.dimension);
   return st;
-}
-
-double max_abs_diff(const std::vector<double> &a, const std::vector<double> &b)
-{
-  if (a.size() != b.size()) return INFINITY;
-  double w = 0.0;
-  for (size_t i = 0; i < a.size(); ++i) w = std::max(w, std::fabs(a[i] - b[i]));
-  return w;
 }
 
 void compare_ranks(const Scene &s, const std::string &tag)
