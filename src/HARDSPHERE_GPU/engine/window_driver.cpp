@@ -210,9 +210,9 @@ namespace Collide {
     start_cached = true;
   }
 
-  /* The window [t0, t1): window start points, bounds, the window's edges and the local groups
-     (gstart/gmembers; boundary groups are left out, their roots flagged in isb).  Returns the
-     largest local group over all ranks. */
+  /* The window [t0, t1): window start points, bounds, the window's edges and their union-find
+     forest (window_groups() places the groups of the window chosen).  Returns the largest
+     group's local part over all ranks. */
   long WindowDriver::window_edges(std::vector<Body> &bodies, const std::vector<Edge> &edges,
                                   const std::vector<ForeignEdge> &fedges,
                                   const std::vector<ForeignNode> &foreign, double t0, double t1,
@@ -220,15 +220,29 @@ namespace Collide {
   {
     const int nb = (int) bodies.size(), nf = (int) foreign.size();
     const double delta = t1 - t0;
+    const bool new_start = !start_cached;
     start_points(bodies, nb, edges, t0, s);
+    wdelta = delta;
     bound.resize(nb);
-    wstate.resize((size_t) 4 * nb);
-    for (int b = 0; b < nb; ++b) {
-      bound[b] = rate[b] * delta;
-      for (int d = 0; d < 3; ++d) wstate[(size_t) 4 * b + d] = bodies[b].w0[d];
-      wstate[(size_t) 4 * b + 3] = bound[b];
+    for (int b = 0; b < nb; ++b) bound[b] = rate[b] * delta;
+    if (ex.nranks() > 1 && new_start) {
+      // Once per window start, not per length tried: the start points and bound rates to the
+      // foreign nodes (a node's bound is its rate times the window's length, the product its
+      // owner forms), and the gaps of the foreign edges there.
+      wstate.resize((size_t) 4 * nb);
+      for (int b = 0; b < nb; ++b) {
+        for (int d = 0; d < 3; ++d) wstate[(size_t) 4 * b + d] = bodies[b].w0[d];
+        wstate[(size_t) 4 * b + 3] = rate[b];
+      }
+      ex.to_foreign(wstate, 4, fstate);
+      fgap.resize(fedges.size());
+      for (size_t q = 0; q < fedges.size(); ++q) {
+        const ForeignEdge &fe = fedges[q];
+        const double s2 = bodies[fe.body].radius + foreign[fe.node].radius;
+        fgap[q] = foreign_gap(bodies[fe.body], &fstate[(size_t) 4 * fe.node], fe, foreign[fe.node],
+                              s2);
+      }
     }
-    if (ex.nranks() > 1) ex.to_foreign(wstate, 4, fstate);
 
     wedges.clear();
     ljoined.assign(edges.size(), 0);
@@ -243,10 +257,8 @@ namespace Collide {
     fjoined.assign(fedges.size(), 0);
     for (size_t q = 0; q < fedges.size(); ++q) {
       const ForeignEdge &fe = fedges[q];
-      const double *fw = &fstate[(size_t) 4 * fe.node];
       const double s2 = bodies[fe.body].radius + foreign[fe.node].radius;
-      if (foreign_gap(bodies[fe.body], fw, fe, foreign[fe.node], s2) <=
-          bound[fe.body] + fw[3] + MARGIN * s2) {
+      if (fgap[q] <= bound[fe.body] + fstate[(size_t) 4 * fe.node + 3] * delta + MARGIN * s2) {
         fwin.push_back((int) q);
         fjoined[q] = 1;
       }
@@ -255,22 +267,24 @@ namespace Collide {
     uf.reset(nb + nf);
     for (const Edge &e : wedges) uf.unite(e.i, e.j);
     for (int q : fwin) uf.unite(fedges[q].body, nb + fedges[q].node);
-    isb.assign(nb + nf, 0);
-    for (int k = 0; k < nf; ++k) isb[uf.find(nb + k)] = 1;
-    int ngroups = 0;
-    long largest = group_by_root(uf, nb, &isb, gstart, gmembers, fill, ngroups);
-    nlocal_groups = ngroups;
-    // The local parts of boundary groups count too (a lower bound of their size).
-    if (nf > 0) {
-      fill.assign(nb + nf, 0);
-      for (int b = 0; b < nb; ++b) {
-        const int r = uf.find(b);
-        if (isb[r]) largest = std::max(largest, (long) ++fill[r]);
-      }
-    }
+    // The largest group's local bodies (of a boundary group, its local part: a lower bound of
+    // its size).  The groups themselves are placed by window_groups(), once the window is
+    // chosen.
+    fill.assign(nb + nf, 0);
+    long largest = 0;
+    for (int b = 0; b < nb; ++b) largest = std::max(largest, (long) ++fill[uf.find(b)]);
     double l = (double) largest;
     ex.max(&l, 1);
     return (long) l;
+  }
+
+  /* The local groups of the window last set up by window_edges() (gstart/gmembers; boundary
+     groups are left out, their roots flagged in isb). */
+  void WindowDriver::window_groups(int nb, int nf)
+  {
+    isb.assign(nb + nf, 0);
+    for (int k = 0; k < nf; ++k) isb[uf.find(nb + k)] = 1;
+    group_by_root(uf, nb, &isb, gstart, gmembers, fill, nlocal_groups);
   }
 
   void WindowDriver::resolve_boundary(std::vector<Body> &bodies,
@@ -377,6 +391,28 @@ namespace Collide {
     for (int g = 0; g < ngr; ++g)
       if (gstart2[g + 1] - gstart2[g] > 1) ++ngroups;
     nbound += ng;
+    // Only the groups with a body of this rank are resolved here (every rank has all of them,
+    // but the others' results would be thrown away): the work per rank follows its own
+    // boundary, not the sum of all ranks' boundaries.  Each group's tally is counted by the
+    // rank of its lowest-ID body (its first member: gbodies are in ID order).
+    {
+      int nmine = 0, at = 0;
+      for (int g = 0; g < ngr; ++g) {
+        bool here = false;
+        for (int m = gstart2[g]; m < gstart2[g + 1] && !here; ++m) here = gmine[gmembers2[m]] >= 0;
+        if (!here) continue;
+        const int len = gstart2[g + 1] - gstart2[g];
+        // Compacted in place: group g's members move down to `at`, g to nmine <= g.
+        std::copy(gmembers2.begin() + gstart2[g], gmembers2.begin() + gstart2[g + 1],
+                  gmembers2.begin() + at);
+        gstart2[nmine] = at;
+        at += len;
+        ++nmine;
+      }
+      gstart2[nmine] = at;
+      ngr = nmine;
+    }
+    gtally2.assign(ngr, Tally());
     WindowWork w{gbodies.data(),
                  ng,
                  gedges.data(),
@@ -384,12 +420,17 @@ namespace Collide {
                  gstart2.data(),
                  gmembers2.data(),
                  ngr,
-                 t1};
+                 t1,
+                 gtally2.data()};
     if (tally_virial) {
       gvir.assign(6 * (size_t) ng, 0.0);
       w.body_virial = gvir.data();
     }
     backend.resolve(w, p, tb);
+    for (int g = 0; g < ngr; ++g) {
+      tb.capped |= gtally2[g].capped;
+      if (gmine[gmembers2[gstart2[g]]] >= 0) tb.add(gtally2[g]);
+    }
     for (int k = 0; k < ng; ++k)
       if (gmine[k] >= 0) {
         const int owner = bodies[gmine[k]].owner;
@@ -583,13 +624,11 @@ namespace Collide {
     for (size_t q = 0; q < fedges.size(); ++q) {
       if (fjoined[q]) continue;
       const ForeignEdge &fe = fedges[q];
-      const double *fw = &fstate[(size_t) 4 * fe.node];
       const double fx = fexc[fe.node];
-      if (!(lexc[fe.body] > bound[fe.body]) && !(fx > fw[3])) continue;
-      const double s2 = bodies[fe.body].radius + foreign[fe.node].radius;
-      if (lexc[fe.body] + fx + MARGIN * s2 <
-          foreign_gap(bodies[fe.body], fw, fe, foreign[fe.node], s2))
+      if (!(lexc[fe.body] > bound[fe.body]) && !(fx > fstate[(size_t) 4 * fe.node + 3] * wdelta))
         continue;
+      const double s2 = bodies[fe.body].radius + foreign[fe.node].radius;
+      if (lexc[fe.body] + fx + MARGIN * s2 < fgap[q]) continue;
       fjoined[q] = 1;
       fwin.push_back((int) q);
       uf.unite(fe.body, nb + fe.node);
@@ -811,6 +850,7 @@ namespace Collide {
       start_cached = false;
       largest = std::max(largest, window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex));
     }
+    window_groups(nb, (int) foreign.size());
     // Local groups, each with its own tally (a repair replaces a group's tally).
     if (snap.capacity() < bodies.size()) snap.reserve(bodies.size() + bodies.size() / 8 + 64);
     snap.assign(bodies.begin(), bodies.end());
@@ -1113,7 +1153,8 @@ namespace Collide {
             }
           }
           acc[1] += repairs;
-          // The gathered groups: the same on every rank, counted on rank 0.
+          // The gathered groups' tallies by the rank of each one's lowest-ID body; their
+          // figures, the same on every rank, counted on rank 0.
           tbnd.add(tgw);
           if (ex.rank() == 0) {
             acc[0] += bg;
@@ -1153,7 +1194,7 @@ namespace Collide {
     stats.spanning = acc[3];
     stats.gathered = acc[4];
     mine = tloc;
-    if (ex.rank() == 0) mine.add(tbnd);
+    mine.add(tbnd);
   }
 
 }    // namespace Collide

@@ -37,7 +37,8 @@
    cap), one more where some rank cannot see a group of its own whole (whether a gather is
    left), and the gather where one is.  Per step two reductions before the windows and two
    after (the figures of WindowStats).  Tallies: each group's once over the ranks, by the rank
-   of its lowest-ID body among those whose owners resolve it; gathered groups' on rank 0.
+   of its lowest-ID body among those whose owners resolve it.  Every rank receives every
+   gathered group but resolves only those that hold a body of its own.
 
    Event times depend only on the two bodies' states (core/trajectory.h), never on the window
    or group a pair is in, and every group sees its events in the global time order restricted
@@ -174,6 +175,10 @@ namespace Collide {
     // window_edges() of one window start: each body's bound per unit of window length, each
     // edge's gap and margin at the start; start_cached while the chooser tries that window.
     std::vector<double> rate, egap, emargin;
+    // ... and of the foreign edges (ranks > 1): their gaps at the start; fstate holds each
+    // foreign node's start point and bound rate; wdelta the length of the window last tried.
+    std::vector<double> fgap;
+    double wdelta = 0.0;
     bool start_cached = false;
     std::vector<Edge> wedges;    // local window edges
     std::vector<char> fjoined, ljoined;
@@ -186,6 +191,7 @@ namespace Collide {
     std::vector<Body> gbodies;
     std::vector<Edge> gedges;
     std::vector<int> gmine, gstart2, gmembers2;
+    std::vector<Tally> gtally2;
     std::vector<int> bsent;    // local bodies of the boundary groups of the last gather
     std::vector<double> send, recv;
     // per-atom virial (when run() is given body_virial): of the window so far, per local
@@ -240,6 +246,7 @@ namespace Collide {
                       const std::vector<ForeignEdge> &fedges,
                       const std::vector<ForeignNode> &foreign, double t0, double t1,
                       const WindowSettings &s, Exchange &ex);
+    void window_groups(int nb, int nf);
     void resolve_boundary(std::vector<Body> &bodies, const std::vector<ForeignEdge> &fedges,
                           const std::vector<ForeignNode> &foreign, const Params &p, double t1,
                           CollisionBackend &backend, Exchange &ex, Tally &tb, long &largest,
