@@ -297,7 +297,9 @@ namespace Collide {
     // Over the view (gather_view): the local bodies of the groups marked in gsel, whose window
     // edges are all among the view's (each sent by the owner of its lower-ID body).
     const int nb = gather_view ? nlocal_bodies : (int) bodies.size();
-    auto chosen = [&](int b) { return gather_view ? gsel[b] != 0 : isb[uf.find(b)] != 0; };
+    bchosen.resize(nb);
+    for (int b = 0; b < nb; ++b) bchosen[b] = gather_view ? gsel[b] != 0 : isb[uf.find(b)] != 0;
+    auto chosen = [&](int b) { return bchosen[b] != 0; };
     // Partners with a higher ID of each boundary body: window edges only.
     std::vector<int> pstart(nb + 1, 0);
     for (const Edge &e : wedges)

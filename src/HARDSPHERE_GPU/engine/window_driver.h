@@ -192,6 +192,7 @@ namespace Collide {
     std::vector<Edge> gedges;
     std::vector<int> gmine, gstart2, gmembers2;
     std::vector<Tally> gtally2;
+    std::vector<char> bchosen;    // local body: in a group resolve_boundary() gathers
     std::vector<int> bsent;    // local bodies of the boundary groups of the last gather
     std::vector<double> send, recv;
     // per-atom virial (when run() is given body_virial): of the window so far, per local
