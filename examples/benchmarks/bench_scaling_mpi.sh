@@ -13,6 +13,8 @@
 #   ranks  default "1 2 4 8 16";  per  default 32768;  big  default 1048576;  reps  default 1
 #   (the median of each column is printed, each row as soon as its runs are done).
 #   HSGPU_SCALING="weak strong" picks the tables; HSGPU_POUR_STEPS the pour's steps (600);
+#   HSGPU_WEAK="lattice3d fluid pour" the weak table's scenes; HSGPU_STRONG_STEPS the strong
+#   table's steps (20);
 #   HSGPU_SPANNING=view|gather adds that `spanning` keyword to the fix (default: the fix's).
 #
 # Columns: the fix's own time per step after the run's first (its run summary), LAMMPS's Loop
@@ -31,6 +33,8 @@ big=${5:-1048576}
 reps=${6:-1}
 tables=${HSGPU_SCALING:-weak strong}
 pour_steps=${HSGPU_POUR_STEPS:-600}
+strong_steps=${HSGPU_STRONG_STEPS:-20}
+read -r -a weak_cases <<< "${HSGPU_WEAK:-lattice3d fluid pour}"
 scenes=${HSGPU_SCENES:-$here}
 export OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 work=$(mktemp -d)
@@ -82,10 +86,10 @@ size_args() {    # case np -> prints "N args..."
     pour) local n
       n=$(awk -v t="$total" 'BEGIN {printf "%d", sqrt(t / 16) + 0.5}')
       echo "$total -var N $total -var n $n -var steps $pour_steps" ;;
-    big_lattice3d) echo "$big -var N $big -var steps 20" ;;
+    big_lattice3d) echo "$big -var N $big -var steps $strong_steps" ;;
     big_fluid) local nx
       nx=$(awk -v t="$big" 'BEGIN {printf "%d", t ^ (1 / 3) + 0.5}')
-      echo "$((nx * nx * nx)) -var nx $nx -var steps 20" ;;
+      echo "$((nx * nx * nx)) -var nx $nx -var steps $strong_steps" ;;
   esac
 }
 
@@ -119,7 +123,7 @@ table() {    # weak|strong cases...  Each row is printed as soon as it is measur
 if [[ " $tables " == *" weak "* ]]; then
   echo "Weak scaling, about $per atoms per rank (the pour: its first $pour_steps steps):"
   echo
-  table weak lattice3d fluid pour
+  table weak "${weak_cases[@]}"
 fi
 if [[ " $tables " == *" strong "* ]]; then
   echo "Strong scaling, N = $big (the fluid: the nearest cube):"
