@@ -30,6 +30,10 @@
                                         28 windows resolved by the old path (every spanning
                                            group gathered), last step
                                         29 atoms gathered (of those in 11), last step (ext)
+                                        30 gathers (of 16) with the neighbouring ranks only,
+                                           last step
+                                        31 messages to neighbouring ranks, last step,
+                                           summed over the ranks (ext)
 ------------------------------------------------------------------------------------- */
 
 #include "fix_hardsphere.h"
@@ -70,7 +74,7 @@ namespace {
 
 constexpr double NEVER_COLLIDED = -1.0e30;    // tlast of an atom that never collided
 const char *const FACES[HSGPU::Collide::NFACES] = {"xlo", "xhi", "ylo", "yhi", "zlo", "zhi"};
-constexpr int NVECTOR = 29;
+constexpr int NVECTOR = 31;
 constexpr int DEFAULT_MAXPUSH = 1000;    // overlap push passes before giving up
 constexpr int RESTART_FORMAT = 2;        // global restart data: -format, count, values
 
@@ -128,7 +132,7 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
     step_amax(0.0), vend2(0.0), maxevents(0), tlast(nullptr), n_step(0.0), n_total(0.0),
     n_wall(0.0), ke_total(0.0), max_events(0.0), events_total(0.0), n_redo(0.0), last_largest(0.0),
     last_groups(0.0), last_windows(0.0), last_boundary(0.0), last_gathers(0.0), last_spanning(0.0),
-    last_fallbacks(0.0), last_gathered(0.0), t_search(0.0),
+    last_fallbacks(0.0), last_gathered(0.0), last_neighbour(0.0), t_search(0.0),
     t_resolve(0.0), t_step(0.0), n_repair(0.0), n_resident(0.0), n_declined(0.0),
     last_candidates(0.0), n_ghost_raise(0.0), bound_floor(0.0), exchange(nullptr), fwd_nval(0),
     n_push(0.0)
@@ -143,7 +147,7 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
   global_freq = 1;
   extvector = -1;
   extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1, 0, 1, 0, 0, 1, 0, 0,
-                             1, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 1, 0, 1};
+                             1, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 1, 0, 1, 0, 1};
   virial_global_flag = 1;
   virial_peratom_flag = 1;    // on the steps LAMMPS asks for it (compute stress/atom)
   thermo_virial = 1;
@@ -743,6 +747,13 @@ double FixHardSphere::compute_vector(int n)
     return last_fallbacks;
   case 28:
     return last_gathered;
+  case 29:
+    return last_neighbour;
+  case 30: {
+    double all = 0.0;
+    MPI_Allreduce(&comm_last.messages, &all, 1, MPI_DOUBLE, MPI_SUM, world);
+    return all;
+  }
   default:
     return 0.0;
   }

@@ -117,6 +117,7 @@ class FixHardSphere : public Fix {
   double last_spanning;      // groups spanning ranks resolved where they lie, last step
   double last_fallbacks;     // windows resolved by the old path, last step
   double last_gathered;      // atoms gathered (of those in spanning groups), last step
+  double last_neighbour;     // of the gathers, those with the neighbouring ranks only, last step
   double t_search;           // seconds spent in the candidate search, in total
   double t_resolve;          // seconds spent resolving, in total
   double t_step;             // seconds spent in the fix's step (post_integrate), in total
@@ -131,6 +132,7 @@ class FixHardSphere : public Fix {
   // updates' values for ghosts of atoms owned by other ranks).
   struct CommCount {
     double collectives = 0.0, halos = 0.0, bytes = 0.0;
+    double messages = 0.0;    // point-to-point messages received (gathers to neighbours)
   };
   CommCount comm_step;      // this step so far
   CommCount comm_last;      // the last step
@@ -139,13 +141,14 @@ class FixHardSphere : public Fix {
     bigint steps = 0;
     double pairs = 0.0, events = 0.0, largest = 0.0, windows = 0.0, groups = 0.0;
     double boundary = 0.0, gathers = 0.0, repairs = 0.0, redos = 0.0;
-    double spanning = 0.0, fallbacks = 0.0, gathered = 0.0;
+    double spanning = 0.0, fallbacks = 0.0, gathered = 0.0, neighbour = 0.0;
     double t_search = 0.0, t_resolve = 0.0, t_step = 0.0;
     double t_first = 0.0;       // seconds of the run's first step (allocations, page-locking)
     bigint resident = 0;        // steps carried out on the device
     double t_transfer = 0.0;    // seconds copying bodies to the device and back
     double bytes_up = 0.0;      // bytes of atom arrays copied to the device (whole steps)
     double collectives = 0.0, halos = 0.0, bytes = 0.0;    // communication (this rank's)
+    double messages = 0.0;
     bigint declined[5] = {0, 0, 0, 0, 0};                  // steps handed back, by ResidentOutcome
   } run_sum;
 
@@ -225,6 +228,7 @@ class FixHardSphere : public Fix {
   void allreduce(const void *in, void *out, int n, MPI_Datatype type, MPI_Op op);
   void count_collective(double bytes);
   void count_halo(int nval);
+  void count_messages(double n, double bytes);
   void step_budget();
   void check_budget(double vmax2, double amax, double rmax_seen);
   double ghost_reach() const;

@@ -15,6 +15,16 @@
 
 using namespace LAMMPS_NS;
 
+LammpsExchange::LammpsExchange(FixHardSphere *fix) : fix(fix), p2p(MPI_COMM_NULL)
+{
+  MPI_Comm_dup(fix->world, &p2p);
+}
+
+LammpsExchange::~LammpsExchange()
+{
+  if (p2p != MPI_COMM_NULL) MPI_Comm_free(&p2p);
+}
+
 int LammpsExchange::nranks() const
 {
   return fix->comm->nprocs;
@@ -89,6 +99,64 @@ void LammpsExchange::allgather(const std::vector<double> &send, std::vector<doub
   // Two collectives: the counts, then the other ranks' values.
   fix->count_collective((double) (fix->comm->nprocs - 1) * sizeof(int));
   fix->count_collective((double) (recv.size() - send.size()) * sizeof(double));
+}
+
+/* Messages to chosen ranks with no count exchanged beforehand (the non-blocking consensus of
+   Hoefler, Siebert and Lumsdaine, 2010): synchronous sends to the destinations; incoming
+   messages are taken as they are probed; once this rank's sends are all received, it enters a
+   non-blocking barrier, and when every rank has entered it, no message is left in flight.
+   Costs one barrier (counted as a collective) and the messages (counted, with their bytes). */
+bool LammpsExchange::to_ranks(const std::vector<int> &dest,
+                              const std::vector<std::vector<double>> &send,
+                              std::vector<double> &recv)
+{
+  constexpr int TAG = 7411;
+  const int nd = (int) dest.size();
+  std::vector<MPI_Request> sreq(nd, MPI_REQUEST_NULL);
+  for (int k = 0; k < nd; ++k) {
+    if (send[k].size() > 2147483647UL)
+      fix->error->one(FLERR, "Fix hardsphere: too many atoms in groups that span ranks");
+    MPI_Issend(send[k].data(), (int) send[k].size(), MPI_DOUBLE, dest[k], TAG, p2p, &sreq[k]);
+  }
+  std::vector<std::pair<int, std::vector<double>>> got;
+  MPI_Request barrier = MPI_REQUEST_NULL;
+  bool in_barrier = false;
+  while (true) {
+    int flag = 0;
+    MPI_Status st;
+    MPI_Iprobe(MPI_ANY_SOURCE, TAG, p2p, &flag, &st);
+    if (flag) {
+      int count = 0;
+      MPI_Get_count(&st, MPI_DOUBLE, &count);
+      got.emplace_back(st.MPI_SOURCE, std::vector<double>(count));
+      MPI_Recv(got.back().second.data(), count, MPI_DOUBLE, st.MPI_SOURCE, TAG, p2p,
+               MPI_STATUS_IGNORE);
+      continue;
+    }
+    int done = 0;
+    if (!in_barrier) {
+      MPI_Testall(nd, sreq.data(), &done, MPI_STATUSES_IGNORE);
+      if (done) {
+        MPI_Ibarrier(p2p, &barrier);
+        in_barrier = true;
+      }
+    } else {
+      MPI_Test(&barrier, &done, MPI_STATUS_IGNORE);
+      if (done) break;
+    }
+  }
+  std::sort(got.begin(), got.end(),
+            [](const std::pair<int, std::vector<double>> &a,
+               const std::pair<int, std::vector<double>> &b) { return a.first < b.first; });
+  recv.clear();
+  double bytes = 0.0;
+  for (const auto &g : got) {
+    recv.insert(recv.end(), g.second.begin(), g.second.end());
+    bytes += (double) g.second.size() * sizeof(double);
+  }
+  fix->count_messages((double) got.size(), bytes);
+  fix->count_collective(0.0);
+  return true;
 }
 
 void LammpsExchange::max(double *v, int n)

@@ -156,6 +156,14 @@ void FixHardSphere::count_halo(int nval)
   comm_step.bytes += (double) remote_ghosts * nval * sizeof(double);
 }
 
+/* Point-to-point messages of the step (gathers to the neighbouring ranks): n of them received
+   here, with their bytes. */
+void FixHardSphere::count_messages(double n, double bytes)
+{
+  comm_step.messages += n;
+  comm_step.bytes += bytes;
+}
+
 /* Atom i's displacement bound for the step: twice its drift, at least bound_floor (or what a
    failed check of this step raised it to), at most the reach. */
 double FixHardSphere::step_bound(int i, double drift_dt) const
@@ -364,6 +372,7 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
         foreign_tag.push_back(ft[k].first);
         foreign_ghost.push_back(ft[k].second);
         fnodes.push_back({(long) ft[k].first, gdata[(size_t) NFWD * ft[k].second + 6]});
+        fnodes.back().owner = (int) gdata[(size_t) NFWD * ft[k].second + 7];
       }
       foreign_of[ft[k].second - nlocal] = (int) foreign_tag.size() - 1;
     }
@@ -1109,7 +1118,7 @@ void FixHardSphere::step_serial(Tally &mine, Tally &all)
   last_windows = 1.0;
   last_boundary = comm->nprocs > 1 ? (double) atom->natoms : 0.0;
   last_gathers = comm->nprocs > 1 ? 1.0 : 0.0;
-  last_spanning = last_fallbacks = 0.0;
+  last_spanning = last_fallbacks = last_neighbour = 0.0;
   last_gathered = last_boundary;
 }
 
@@ -1152,6 +1161,7 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
   last_spanning = (double) stats.spanning;
   last_fallbacks = (double) stats.fallbacks;
   last_gathered = (double) stats.gathered;
+  last_neighbour = (double) stats.neighbour;
 }
 
 bool FixHardSphere::resident_usable() const
@@ -1247,7 +1257,7 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
   last_groups = (double) report.stats.groups;
   last_windows = (double) report.stats.windows;
   last_boundary = 0.0;
-  last_gathers = last_spanning = last_fallbacks = last_gathered = 0.0;
+  last_gathers = last_spanning = last_fallbacks = last_gathered = last_neighbour = 0.0;
   // With group all the device also shifted every atom's time of last collision to the end of
   // this step.
   return whole ? 2 : 1;
@@ -1326,10 +1336,12 @@ void FixHardSphere::post_integrate()
   run_sum.spanning += last_spanning;
   run_sum.fallbacks += last_fallbacks;
   run_sum.gathered += last_gathered;
+  run_sum.neighbour += last_neighbour;
   comm_last = comm_step;
   run_sum.collectives += comm_step.collectives;
   run_sum.halos += comm_step.halos;
   run_sum.bytes += comm_step.bytes;
+  run_sum.messages += comm_step.messages;
   const double spent = MPI_Wtime() - t_start;
   t_step += spent;
   run_sum.t_step += spent;
@@ -1342,8 +1354,11 @@ void FixHardSphere::post_run()
   const RunSummary &r = run_sum;
   if (r.steps == 0) return;
   // The bytes all ranks received (every rank takes part in the sum).
-  double bytes = 0.0;
-  if (comm->nprocs > 1) MPI_Allreduce(&r.bytes, &bytes, 1, MPI_DOUBLE, MPI_SUM, world);
+  double bytes = 0.0, messages = 0.0;
+  if (comm->nprocs > 1) {
+    MPI_Allreduce(&r.bytes, &bytes, 1, MPI_DOUBLE, MPI_SUM, world);
+    MPI_Allreduce(&r.messages, &messages, 1, MPI_DOUBLE, MPI_SUM, world);
+  }
   if (comm->me != 0) return;
   const double n = (double) r.steps;
   utils::logmesg(lmp,
@@ -1365,8 +1380,10 @@ void FixHardSphere::post_run()
   if (comm->nprocs > 1)
     utils::logmesg(lmp,
                    "Fix hardsphere: communication per step: {:.4g} collective operations, {:.4g} "
-                   "ghost updates, {:.4g} kB received by all {} ranks together\n",
-                   r.collectives / n, r.halos / n, 1e-3 * bytes / n, comm->nprocs);
+                   "ghost updates, {:.4g} messages to neighbouring ranks ({:.3g} gathers with "
+                   "the neighbouring ranks only), {:.4g} kB received by all {} ranks together\n",
+                   r.collectives / n, r.halos / n, messages / n, r.neighbour / n,
+                   1e-3 * bytes / n, comm->nprocs);
   if (resident) {
     using HSGPU::Collide::ResidentOutcome;
     auto back = [&](ResidentOutcome o) { return r.declined[(int) o]; };

@@ -343,6 +343,7 @@ struct Spanning {
   double collisions = 0.0, events = 0.0;
   double windows = 0.0, boundary = 0.0, gathers = 0.0, local = 0.0, fallbacks = 0.0;
   double gathered = 0.0;
+  double neighbour = 0.0;    // f_hs[30]: gathers with the neighbouring ranks only
 };
 
 // kind "fluid": 12^3 elastic spheres of diameter 1 on a simple cubic lattice at packing
@@ -353,7 +354,7 @@ struct Spanning {
 // Atoms are placed one by one and their velocities set from their IDs (independent of the
 // decomposition).
 Spanning run_dense(MPI_Comm comm, const std::string &kind, const std::string &order, int steps,
-                   const std::string &cutoff)
+                   const std::string &cutoff, const std::string &spanning = "view")
 {
   Lammps lmp(comm);
   const bool fluid = kind == "fluid";
@@ -385,16 +386,17 @@ Spanning run_dense(MPI_Comm comm, const std::string &kind, const std::string &or
                 "comm_modify cutoff " + cutoff + " vel yes",
                 "neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere"});
   if (fluid)
-    lmp.commands({"fix hs all hardsphere reach 0.5 spanning view order " + order});
+    lmp.commands({"fix hs all hardsphere reach 0.5 spanning " + spanning + " order " + order});
   else
     lmp.commands({"fix g all gravity 1.0 vector 0 0 -1",
-                  "fix hs all hardsphere restitution 0.7 wall zlo 0.7 reach 0.5 spanning view order " +
+                  "fix hs all hardsphere restitution 0.7 wall zlo 0.7 reach 0.5 spanning " +
+                      spanning + " order " +
                       order +
                       (kind == "rough" ? " friction 0.5 0.2 wall/friction zlo 0.4 0.0" : "")});
   const std::string ns = std::to_string(steps);
   lmp.commands({"timestep 0.01", "thermo 0",
                 "fix avg all ave/time 1 " + ns + " " + ns +
-                    " f_hs[9] f_hs[11] f_hs[16] f_hs[27] f_hs[28] f_hs[29]",
+                    " f_hs[9] f_hs[11] f_hs[16] f_hs[27] f_hs[28] f_hs[29] f_hs[30]",
                 "run " + ns});
   Spanning s;
   s.x = lmp.gather("x", 3);
@@ -408,6 +410,7 @@ Spanning run_dense(MPI_Comm comm, const std::string &kind, const std::string &or
   s.local = lmp.fix_vector("avg", 3);
   s.fallbacks = lmp.fix_vector("avg", 4);
   s.gathered = lmp.fix_vector("avg", 5);
+  s.neighbour = lmp.fix_vector("avg", 6);
   return s;
 }
 
@@ -449,6 +452,47 @@ void compare_spanning(const std::string &kind, int steps, const std::string &cut
                 world.boundary, world.local, world.gathers, world.gathered, world.fallbacks);
   }
   MPI_Barrier(MPI_COMM_WORLD);
+}
+
+// The default `spanning gather` on more than two ranks: the groups that span ranks are gathered
+// from the neighbouring ranks (the owners of the foreign nodes in each group, entries passed on
+// through a third rank where a group reaches further), not from every rank; each rank resolves
+// the groups that hold an atom of its own.  Bitwise equal to serial on one rank.
+void compare_neighbour_gather(const std::string &kind, int steps)
+{
+  int me = 0, np = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  const Spanning world = run_dense(MPI_COMM_WORLD, kind, "parallel", steps, "2.5", "gather");
+  if (np > 2) {
+    EXPECT_GT(world.gathers, 0.5) << kind << ": gathers per step";
+    // Almost every gather stays with the neighbouring ranks; a group that still lacks a
+    // partner after the passing on is gathered from every rank.
+    EXPECT_GT(world.neighbour, 0.8 * world.gathers) << kind << ": gathers to the neighbours";
+  } else {
+    EXPECT_EQ(world.neighbour, 0.0) << kind << ": one or two ranks gather from every rank";
+  }
+  if (me == 0) {
+    const Spanning single = run_dense(MPI_COMM_SELF, kind, "serial", steps, "2.5", "gather");
+    EXPECT_EQ(max_abs_diff(world.x, single.x), 0.0) << kind << ": " << np << " ranks vs serial";
+    EXPECT_EQ(max_abs_diff(world.v, single.v), 0.0) << kind << ": " << np << " ranks vs serial";
+    EXPECT_EQ(max_abs_diff(world.omega, single.omega), 0.0) << kind << ": spins";
+    EXPECT_EQ(world.collisions, single.collisions) << kind;
+    EXPECT_EQ(world.events, single.events) << kind;
+    EXPECT_GT(single.collisions, 20000.0) << kind;
+    std::printf("[ MPI      ] %s, spanning gather, %d ranks (parallel) vs 1 (serial), %d steps, "
+                "%.0f collisions: per step %.4g atoms in spanning groups, %.3g gathers, %.3g of "
+                "them with the neighbouring ranks only\n",
+                kind.c_str(), np, steps, single.collisions, world.boundary, world.gathers,
+                world.neighbour);
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+}
+
+TEST(FixHardSphereMPI, SpanningGroupsGatheredFromTheNeighbouringRanks)
+{
+  compare_neighbour_gather("fluid", 100);
+  compare_neighbour_gather("rough", 300);
 }
 
 // With the ghost cutoff the fluid benchmark uses (2.5), a third or more of the spanning groups'

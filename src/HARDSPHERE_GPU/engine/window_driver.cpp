@@ -287,6 +287,136 @@ namespace Collide {
     group_by_root(uf, nb, &isb, gstart, gmembers, fill, nlocal_groups);
   }
 
+  /* A boundary body's gathered entry: its body (nbody values), the number of its window
+     partners with a higher ID and with a lower one, its owner's rank, each higher partner's ID
+     and image shift (NPARTNER values), each lower one's ID. */
+  namespace {
+    constexpr int NHEAD = 3;    // after the body: partners above, below, the owner's rank
+    size_t entry_length(const double *h, int nbody)
+    {
+      return nbody + NHEAD + (size_t) NPARTNER * (size_t) h[nbody] + (size_t) h[nbody + 1];
+    }
+  }    // namespace
+
+  /* The gather to the neighbouring ranks: each boundary body's entry (in `send`, at the offsets
+     of bsent's bodies) goes to the ranks that own a foreign node of its group here; what they
+     send comes back into `recv` after this rank's own entries.  Returns false where the
+     exchange has no point-to-point path. */
+  bool WindowDriver::neighbour_gather(const std::vector<ForeignNode> &foreign, int nb,
+                                      int nentry, Exchange &ex, long &mine_off)
+  {
+    const int nf = (int) foreign.size();
+    // (root, rank) of every foreign node in a boundary group; an unknown owner is rank -1.
+    rootrank.clear();
+    for (int k = 0; k < nf; ++k) rootrank.emplace_back(uf.find(nb + k), foreign[k].owner);
+    std::sort(rootrank.begin(), rootrank.end());
+    rootrank.erase(std::unique(rootrank.begin(), rootrank.end()), rootrank.end());
+    ndest.clear();
+    for (const auto &rr : rootrank)
+      if (rr.second >= 0) ndest.push_back(rr.second);
+    std::sort(ndest.begin(), ndest.end());
+    ndest.erase(std::unique(ndest.begin(), ndest.end()), ndest.end());
+    nsend.resize(ndest.size());
+    for (auto &v : nsend) v.clear();
+    size_t off = 0;
+    for (int b : bsent) {
+      const size_t len = entry_length(&send[off], nentry);
+      const int r = uf.find(b);
+      auto it = std::lower_bound(rootrank.begin(), rootrank.end(), std::make_pair(r, -1));
+      for (; it != rootrank.end() && it->first == r; ++it) {
+        if (it->second < 0) continue;
+        const size_t d = std::lower_bound(ndest.begin(), ndest.end(), it->second) - ndest.begin();
+        nsend[d].insert(nsend[d].end(), send.begin() + off, send.begin() + off + len);
+      }
+      off += len;
+    }
+    unknown_owner = false;
+    for (const auto &rr : rootrank) unknown_owner |= rr.second < 0;
+    std::vector<double> got;
+    if (!ex.to_ranks(ndest, nsend, got)) return false;
+    recv = send;
+    recv.insert(recv.end(), got.begin(), got.end());
+    mine_off = 0;
+    return true;
+  }
+
+  /* The gathered entries in `recv` into gbodies (in ID order), gmine (this rank's body of each,
+     -1: another rank's) and gedges (from the higher-ID partner lists).  sparse: a gather to the
+     neighbouring ranks, where a partner may be missing (gmissing); else every partner is
+     expected (gather_broken where one is not). */
+  void WindowDriver::unpack_gathered(long mine_off, bool sparse)
+  {
+    const int nbody = spin ? NBODY + 3 : NBODY;
+    gbodies.clear();
+    gedges.clear();
+    std::vector<std::pair<long, size_t>> order;
+    for (size_t off = 0; off < recv.size(); off += entry_length(&recv[off], nbody))
+      order.emplace_back((long) recv[off + 24], off);
+    std::sort(order.begin(), order.end());
+    // A body's entry may come twice from a gather to the neighbouring ranks (from its owner
+    // and passed on by another rank): the same values, kept once.
+    order.erase(std::unique(order.begin(), order.end(),
+                            [](const std::pair<long, size_t> &a, const std::pair<long, size_t> &b) {
+                              return a.first == b.first;
+                            }),
+                order.end());
+    const int ng = (int) order.size();
+    gentry.resize(ng);
+    for (int k = 0; k < ng; ++k) gentry[k] = order[k].second;
+    gbodies.resize(ng);
+    gmine.assign(ng, -1);
+    gmissing.assign(ng, 0);
+    std::vector<long> ids(ng);
+    for (int k = 0; k < ng; ++k) {
+      unpack_body(&recv[order[k].second], gbodies[k], spin);
+      ids[k] = gbodies[k].id;
+    }
+    {
+      size_t off = (size_t) mine_off;
+      for (int b : bsent) {
+        const long id = (long) recv[off + 24];
+        const int k = (int) (std::lower_bound(ids.begin(), ids.end(), id) - ids.begin());
+        gmine[k] = b;
+        off += entry_length(&recv[off], nbody);
+      }
+    }
+    auto present = [&](long id) {
+      const auto it = std::lower_bound(ids.begin(), ids.end(), id);
+      return (it == ids.end() || *it != id) ? -1 : (int) (it - ids.begin());
+    };
+    for (int k = 0; k < ng; ++k) {
+      const double *h = &recv[order[k].second];
+      const int nhigh = (int) h[nbody], nlow = (int) h[nbody + 1];
+      for (int q = 0; q < nhigh; ++q) {
+        const double *o = h + nbody + NHEAD + (size_t) NPARTNER * q;
+        const int j = present((long) o[0]);
+        if (j < 0) {
+          // Sparse: a partner on a rank that is not a neighbour here.  Otherwise never
+          // expected (every rank sees the same gathered data and falls back alike).
+          if (sparse)
+            gmissing[k] = 1;
+          else
+            gather_broken = true;
+          continue;
+        }
+        Edge e;
+        e.i = k;
+        e.j = j;
+        for (int d = 0; d < 3; ++d) e.shift[d] = o[1 + d];
+        gedges.push_back(e);
+      }
+      if (sparse)
+        for (int q = 0; q < nlow; ++q)
+          if (present((long) h[nbody + NHEAD + (size_t) NPARTNER * nhigh + q]) < 0) gmissing[k] = 1;
+    }
+  }
+
+  /* The boundary groups of the window (bodies in groups that hold a foreign node, or, over
+     the view, those marked in gsel), resolved from their window start up to t1.  Each rank
+     gathers the entries of the groups' bodies (to the neighbouring ranks where every rank
+     then holds each of its groups whole; else from every rank), and resolves the groups that
+     hold a body of its own, keeping its own bodies' results.  Each group's tally and figures
+     are counted by the rank of its lowest-ID body. */
   void WindowDriver::resolve_boundary(std::vector<Body> &bodies,
                                       const std::vector<ForeignEdge> &fedges,
                                       const std::vector<ForeignNode> &foreign, const Params &p,
@@ -300,27 +430,44 @@ namespace Collide {
     bchosen.resize(nb);
     for (int b = 0; b < nb; ++b) bchosen[b] = gather_view ? gsel[b] != 0 : isb[uf.find(b)] != 0;
     auto chosen = [&](int b) { return bchosen[b] != 0; };
-    // Partners with a higher ID of each boundary body: window edges only.
-    std::vector<int> pstart(nb + 1, 0);
-    for (const Edge &e : wedges)
+    // Window partners of each boundary body: those with a higher ID (the edge, sent with its
+    // shift) and those with a lower one (their IDs, for the completeness of a gather to the
+    // neighbouring ranks).
+    std::vector<int> pstart(nb + 1, 0), lstart(nb + 1, 0);
+    for (const Edge &e : wedges) {
       if (e.i < nb && chosen(e.i)) pstart[e.i + 1]++;
+      if (e.j < nb && chosen(e.j)) lstart[e.j + 1]++;
+    }
     if (!gather_view)
-      for (int q : fwin)
-        if (foreign[fedges[q].node].id > bodies[fedges[q].body].id) pstart[fedges[q].body + 1]++;
-    for (int b = 0; b < nb; ++b) pstart[b + 1] += pstart[b];
-    std::vector<double> partners((size_t) NPARTNER * pstart[nb]);
-    std::vector<int> pos(pstart.begin(), pstart.end() - 1);
+      for (int q : fwin) {
+        const ForeignEdge &fe = fedges[q];
+        if (foreign[fe.node].id > bodies[fe.body].id)
+          pstart[fe.body + 1]++;
+        else
+          lstart[fe.body + 1]++;
+      }
+    for (int b = 0; b < nb; ++b) {
+      pstart[b + 1] += pstart[b];
+      lstart[b + 1] += lstart[b];
+    }
+    std::vector<double> partners((size_t) NPARTNER * pstart[nb]), lows(lstart[nb]);
+    std::vector<int> pos(pstart.begin(), pstart.end() - 1), lpos(lstart.begin(), lstart.end() - 1);
     auto put = [&](int b, long id, const double *shift) {
       double *o = &partners[(size_t) NPARTNER * pos[b]++];
       o[0] = (double) id;
       for (int d = 0; d < 3; ++d) o[1 + d] = shift[d];
     };
-    for (const Edge &e : wedges)
+    for (const Edge &e : wedges) {
       if (e.i < nb && chosen(e.i)) put(e.i, bodies[e.j].id, e.shift);
+      if (e.j < nb && chosen(e.j)) lows[lpos[e.j]++] = (double) bodies[e.i].id;
+    }
     if (!gather_view)
       for (int q : fwin) {
         const ForeignEdge &fe = fedges[q];
-        if (foreign[fe.node].id > bodies[fe.body].id) put(fe.body, foreign[fe.node].id, fe.shift);
+        if (foreign[fe.node].id > bodies[fe.body].id)
+          put(fe.body, foreign[fe.node].id, fe.shift);
+        else
+          lows[lpos[fe.body]++] = (double) foreign[fe.node].id;
       }
 
     send.clear();
@@ -329,74 +476,109 @@ namespace Collide {
     for (int b = 0; b < nb; ++b) {
       if (!chosen(b)) continue;
       const size_t at = send.size();
-      send.resize(at + nbody + 1);
+      send.resize(at + nbody + NHEAD);
       pack_body(bodies[b], &send[at], spin);
       send[at + nbody] = pstart[b + 1] - pstart[b];
+      send[at + nbody + 1] = lstart[b + 1] - lstart[b];
+      send[at + nbody + 2] = ex.rank();
       send.insert(send.end(), partners.begin() + (size_t) NPARTNER * pstart[b],
                   partners.begin() + (size_t) NPARTNER * pstart[b + 1]);
+      send.insert(send.end(), lows.begin() + lstart[b], lows.begin() + lstart[b + 1]);
       sent.push_back(b);
     }
     long mine_off = 0;
-    ex.allgather(send, recv, mine_off);
-    gbodies.clear();
-    gedges.clear();
-    if (recv.empty()) return;
-
-    // Entries in body-ID order.
-    std::vector<std::pair<long, size_t>> order;
-    for (size_t off = 0; off < recv.size();) {
-      order.emplace_back((long) recv[off + 24], off);
-      off += nbody + 1 + (size_t) NPARTNER * (size_t) recv[off + nbody];
-    }
-    std::sort(order.begin(), order.end());
-    const int ng = (int) order.size();
-    gbodies.resize(ng);
-    gmine.assign(ng, -1);
-    std::vector<long> ids(ng);
-    for (int k = 0; k < ng; ++k) {
-      unpack_body(&recv[order[k].second], gbodies[k], spin);
-      ids[k] = gbodies[k].id;
-    }
-    {
-      size_t off = (size_t) mine_off;
-      for (int b : sent) {
-        const long id = (long) recv[off + 24];
-        const int k = (int) (std::lower_bound(ids.begin(), ids.end(), id) - ids.begin());
-        gmine[k] = b;
-        off += nbody + 1 + (size_t) NPARTNER * (size_t) recv[off + nbody];
-      }
-    }
-    for (int k = 0; k < ng; ++k) {
-      const double *h = &recv[order[k].second];
-      const int np = (int) h[nbody];
-      for (int q = 0; q < np; ++q) {
-        const double *o = h + nbody + 1 + (size_t) NPARTNER * q;
-        const auto it = std::lower_bound(ids.begin(), ids.end(), (long) o[0]);
-        if (it == ids.end() || *it != (long) o[0]) {
-          // A partner nobody sent: the ranks disagreed on a group (never expected; every
-          // rank sees the same gathered data and falls back alike).
-          gather_broken = true;
-          continue;
-        }
-        Edge e;
-        e.i = k;
-        e.j = (int) (it - ids.begin());
-        for (int d = 0; d < 3; ++d) e.shift[d] = o[1 + d];
-        gedges.push_back(e);
-      }
-    }
-    UnionFind guf;
-    guf.reset(ng);
-    for (const Edge &e : gedges) guf.unite(e.i, e.j);
+    auto group_gathered = [&](int &ngr) {
+      UnionFind guf;
+      guf.reset((int) gbodies.size());
+      for (const Edge &e : gedges) guf.unite(e.i, e.j);
+      group_by_root(guf, (int) gbodies.size(), nullptr, gstart2, gmembers2, fill, ngr);
+    };
     int ngr = 0;
-    largest = std::max(largest, group_by_root(guf, ng, nullptr, gstart2, gmembers2, fill, ngr));
-    for (int g = 0; g < ngr; ++g)
-      if (gstart2[g + 1] - gstart2[g] > 1) ++ngroups;
-    nbound += ng;
-    // Only the groups with a body of this rank are resolved here (every rank has all of them,
-    // but the others' results would be thrown away): the work per rank follows its own
-    // boundary, not the sum of all ranks' boundaries.  Each group's tally is counted by the
-    // rank of its lowest-ID body (its first member: gbodies are in ID order).
+    // To the neighbouring ranks first (more than two ranks: on two, that is everyone), if
+    // every rank then holds each group of its own whole; else from every rank.
+    bool sparse = !gather_view && ex.nranks() > 2 &&
+                  neighbour_gather(foreign, nb, nbody, ex, mine_off);
+    if (sparse) {
+      unpack_gathered(mine_off, true);
+      group_gathered(ngr);
+      // Whether some rank lacks a partner of a body in a group of its own (a foreign node
+      // whose owner is not known counts as such).
+      auto incomplete = [&]() {
+        long c[1] = {unknown_owner ? 1L : 0L};
+        for (int g = 0; g < ngr && !c[0]; ++g) {
+          bool here = false, missing = false;
+          for (int m = gstart2[g]; m < gstart2[g + 1]; ++m) {
+            here |= gmine[gmembers2[m]] >= 0;
+            missing |= gmissing[gmembers2[m]] != 0;
+          }
+          if (here && missing) c[0] = 1;
+        }
+        ex.sum(c, 1);
+        return c[0] > 0;
+      };
+      // A group over three ranks or more may reach a rank through another one only: each
+      // rank passes the entries it holds of such a group of its own on to the group's other
+      // ranks (the owners of its bodies), for at most FORWARD_ROUNDS rounds.
+      constexpr int FORWARD_ROUNDS = 3;
+      int round = 0;
+      while ((sparse = !incomplete()) == false && round++ < FORWARD_ROUNDS) {
+        std::vector<int> owners;
+        rootrank.clear();    // (destination, entry index)
+        for (int g = 0; g < ngr; ++g) {
+          bool here = false;
+          owners.clear();
+          for (int m = gstart2[g]; m < gstart2[g + 1]; ++m) {
+            const int k = gmembers2[m];
+            here |= gmine[k] >= 0;
+            owners.push_back((int) recv[gentry[k] + nbody + 2]);
+          }
+          std::sort(owners.begin(), owners.end());
+          owners.erase(std::unique(owners.begin(), owners.end()), owners.end());
+          if (!here || owners.size() < 3) continue;
+          for (int d : owners) {
+            if (d == ex.rank()) continue;
+            for (int m = gstart2[g]; m < gstart2[g + 1]; ++m) {
+              const int k = gmembers2[m];
+              if ((int) recv[gentry[k] + nbody + 2] != d) rootrank.emplace_back(d, k);
+            }
+          }
+        }
+        std::sort(rootrank.begin(), rootrank.end());
+        ndest.clear();
+        for (const auto &dk : rootrank)
+          if (ndest.empty() || ndest.back() != dk.first) ndest.push_back(dk.first);
+        nsend.resize(ndest.size());
+        for (auto &v : nsend) v.clear();
+        size_t d = 0;
+        for (const auto &dk : rootrank) {
+          while (ndest[d] != dk.first) ++d;
+          const double *h = &recv[gentry[dk.second]];
+          nsend[d].insert(nsend[d].end(), h, h + entry_length(h, nbody));
+        }
+        std::vector<double> got;
+        ex.to_ranks(ndest, nsend, got);
+        if (!got.empty()) {
+          recv.insert(recv.end(), got.begin(), got.end());
+          unpack_gathered(mine_off, true);
+          group_gathered(ngr);
+        }
+      }
+    }
+    if (sparse) {
+      ++stats_neighbour;
+    } else {
+      ex.allgather(send, recv, mine_off);
+      gbodies.clear();
+      gedges.clear();
+      if (recv.empty()) return;
+      unpack_gathered(mine_off, false);
+      group_gathered(ngr);
+    }
+    const int ng = (int) gbodies.size();
+    // Only the groups with a body of this rank are resolved here (the others' results would
+    // be thrown away): the work per rank follows its own boundary.  Each group's tally and
+    // figures are counted by the rank of its lowest-ID body (its first member: gbodies are in
+    // ID order).
     {
       int nmine = 0, at = 0;
       for (int g = 0; g < ngr; ++g) {
@@ -404,6 +586,11 @@ namespace Collide {
         for (int m = gstart2[g]; m < gstart2[g + 1] && !here; ++m) here = gmine[gmembers2[m]] >= 0;
         if (!here) continue;
         const int len = gstart2[g + 1] - gstart2[g];
+        largest = std::max(largest, (long) len);
+        if (gmine[gmembers2[gstart2[g]]] >= 0) {
+          if (len > 1) ++ngroups;
+          nbound += len;
+        }
         // Compacted in place: group g's members move down to `at`, g to nmine <= g.
         std::copy(gmembers2.begin() + gstart2[g], gmembers2.begin() + gstart2[g + 1],
                   gmembers2.begin() + at);
@@ -900,12 +1087,12 @@ namespace Collide {
     if (ex.nranks() > 1) ex.sum(c, 1);
     capped = c[0] > 0;
     largest = std::max(largest, bl);
-    // The boundary figures are the same on every rank: counted once, on rank 0.
-    const bool first = ex.rank() == 0;
-    acc[0] += ngroups + (first ? bg : 0);
-    acc[1] += repairs + (first ? joined_all : 0);
-    acc[2] += first ? nbound : 0;
-    acc[4] += first ? nbound : 0;
+    // The boundary groups' figures are counted by the rank of each one's lowest-ID body; the
+    // joined pairs, the same on every rank, on rank 0.
+    acc[0] += ngroups + bg;
+    acc[1] += repairs + (ex.rank() == 0 ? joined_all : 0);
+    acc[2] += nbound;
+    acc[4] += nbound;
   }
 
   void WindowDriver::run(std::vector<Body> &bodies, const std::vector<Edge> &edges,
@@ -945,6 +1132,7 @@ namespace Collide {
     speed_floor = floor_fraction_or(s, 0.25) * std::sqrt(vmax);
     stats = WindowStats();
     stats_gathers = 0;
+    stats_neighbour = 0;
 
     // The view: local bodies [0, nb), foreign nodes [nb, nv); its candidate pairs with the
     // lower ID first.
@@ -1155,14 +1343,11 @@ namespace Collide {
             }
           }
           acc[1] += repairs;
-          // The gathered groups' tallies by the rank of each one's lowest-ID body; their
-          // figures, the same on every rank, counted on rank 0.
+          // The gathered groups' tallies and figures by the rank of each one's lowest-ID body.
           tbnd.add(tgw);
-          if (ex.rank() == 0) {
-            acc[0] += bg;
-            acc[2] += nbound;
-            acc[4] += nbound;
-          }
+          acc[0] += bg;
+          acc[2] += nbound;
+          acc[4] += nbound;
           if (tally_virial)
             for (size_t q = 0; q < 6 * (size_t) nb; ++q) body_virial[q] += wvir[q];
         }
@@ -1185,6 +1370,7 @@ namespace Collide {
     bodies.resize(nb);
     stats.windows = k;
     stats.gathers = stats_gathers;
+    stats.neighbour = stats_neighbour;
     // The step's figures over all ranks: two reductions per step.
     double l = (double) largest_all;
     ex.max(&l, 1);

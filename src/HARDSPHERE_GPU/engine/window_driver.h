@@ -37,8 +37,13 @@
    cap), one more where some rank cannot see a group of its own whole (whether a gather is
    left), and the gather where one is.  Per step two reductions before the windows and two
    after (the figures of WindowStats).  Tallies: each group's once over the ranks, by the rank
-   of its lowest-ID body among those whose owners resolve it.  Every rank receives every
-   gathered group but resolves only those that hold a body of its own.
+   of its lowest-ID body among those whose owners resolve it.  A gather goes first to the
+   neighbouring ranks only (on more than two ranks: each boundary body's state to the ranks
+   that own a foreign node of its group, Exchange::to_ranks), and, unless some rank then lacks
+   a partner of a body in a group of its own (a group reaching past its neighbours: one
+   reduction tells), each rank resolves the groups that hold a body of its own; otherwise the
+   gather is from every rank (Exchange::allgather), each rank again resolving only its own
+   groups.
 
    Event times depend only on the two bodies' states (core/trajectory.h), never on the window
    or group a pair is in, and every group sees its events in the global time order restricted
@@ -77,6 +82,7 @@ namespace Collide {
     long id;
     double radius;
     int complete = 0;
+    int owner = -1;    // the rank that owns it (-1: not known; then no gather to neighbours)
   };
 
   /// What the driver needs from the ranks around it.  SingleRank below is the trivial one.
@@ -101,6 +107,18 @@ namespace Collide {
     /// this rank's part.
     virtual void allgather(const std::vector<double> &send, std::vector<double> &recv,
                            long &mine) = 0;
+    /// Point to point: send[k] to rank dest[k] (distinct ranks, not this one), and whatever
+    /// the other ranks send here into recv, concatenated in the order of their ranks.  No rank
+    /// needs to know beforehand who sends to it.  Returns false where the exchange has no such
+    /// path (the caller then gathers from every rank).
+    virtual bool to_ranks(const std::vector<int> &dest, const std::vector<std::vector<double>> &send,
+                          std::vector<double> &recv)
+    {
+      (void) dest;
+      (void) send;
+      (void) recv;
+      return false;
+    }
     virtual void max(double *v, int n) = 0;    // in place, over all ranks
     virtual void sum(long *v, int n) = 0;      // in place, over all ranks
   };
@@ -139,6 +157,8 @@ namespace Collide {
     long spanning = 0;           // groups spanning ranks resolved where they lie (no gather)
     long fallbacks = 0;          // windows on the old path (every spanning group gathered)
     long gathered = 0;           // bodies gathered (of boundary_bodies), over the windows
+    long neighbour = 0;          // of the gathers, those exchanged with the neighbouring ranks
+                                 // only (the ranks of the foreign nodes in the groups)
   };
 
   class WindowDriver {
@@ -193,6 +213,15 @@ namespace Collide {
     std::vector<int> gmine, gstart2, gmembers2;
     std::vector<Tally> gtally2;
     std::vector<char> bchosen;    // local body: in a group resolve_boundary() gathers
+    // the gather to the neighbouring ranks: per boundary root, the ranks of its foreign
+    // nodes; per destination rank, what goes there; per gathered body, a partner missing
+    std::vector<std::pair<int, int>> rootrank;
+    std::vector<int> ndest;
+    std::vector<std::vector<double>> nsend;
+    std::vector<char> gmissing;
+    std::vector<size_t> gentry;    // per gathered body: its entry's offset in recv
+    bool unknown_owner = false;    // a foreign node's owner rank is not known
+    long stats_neighbour = 0;
     std::vector<int> bsent;    // local bodies of the boundary groups of the last gather
     std::vector<double> send, recv;
     // per-atom virial (when run() is given body_virial): of the window so far, per local
@@ -248,6 +277,9 @@ namespace Collide {
                       const std::vector<ForeignNode> &foreign, double t0, double t1,
                       const WindowSettings &s, Exchange &ex);
     void window_groups(int nb, int nf);
+    bool neighbour_gather(const std::vector<ForeignNode> &foreign, int nb, int nentry,
+                          Exchange &ex, long &mine_off);
+    void unpack_gathered(long mine_off, bool sparse);
     void resolve_boundary(std::vector<Body> &bodies, const std::vector<ForeignEdge> &fedges,
                           const std::vector<ForeignNode> &foreign, const Params &p, double t1,
                           CollisionBackend &backend, Exchange &ex, Tally &tb, long &largest,
