@@ -496,8 +496,18 @@ namespace Collide {
     int ngr = 0;
     // To the neighbouring ranks first (more than two ranks: on two, that is everyone), if
     // every rank then holds each group of its own whole; else from every rank.
-    bool sparse = !gather_view && ex.nranks() > 2 &&
-                  neighbour_gather(foreign, nb, nbody, ex, mine_off);
+    // After a gather to the neighbours that ended in the gather from every rank (a pile whose
+    // touching spheres join one group over many ranks), the next ones go to every rank at
+    // once, for 8 gathers and twice as many after each further such end (at most 64).  The
+    // outcome is the same on every rank, and so is this choice.
+    bool sparse = false;
+    if (!gather_view && ex.nranks() > 2) {
+      if (neighbour_skip > 0)
+        --neighbour_skip;
+      else
+        sparse = neighbour_gather(foreign, nb, nbody, ex, mine_off);
+    }
+    const bool tried = sparse;
     if (sparse) {
       unpack_gathered(mine_off, true);
       group_gathered(ngr);
@@ -563,6 +573,10 @@ namespace Collide {
           group_gathered(ngr);
         }
       }
+    }
+    if (tried) {
+      neighbour_skip = sparse ? 0 : neighbour_backoff;
+      neighbour_backoff = sparse ? 8 : std::min(2 * neighbour_backoff, 64);
     }
     if (sparse) {
       ++stats_neighbour;

@@ -43,7 +43,8 @@
    a partner of a body in a group of its own (a group reaching past its neighbours: one
    reduction tells), each rank resolves the groups that hold a body of its own; otherwise the
    gather is from every rank (Exchange::allgather), each rank again resolving only its own
-   groups.
+   groups.  After such a fall-back the next gathers go to every rank at once for a while (a
+   pile over many ranks is one group that no neighbourhood holds).
 
    Event times depend only on the two bodies' states (core/trajectory.h), never on the window
    or group a pair is in, and every group sees its events in the global time order restricted
@@ -222,6 +223,8 @@ namespace Collide {
     std::vector<size_t> gentry;    // per gathered body: its entry's offset in recv
     bool unknown_owner = false;    // a foreign node's owner rank is not known
     long stats_neighbour = 0;
+    int neighbour_skip = 0;       // gathers left that go to every rank at once
+    int neighbour_backoff = 8;    // the next such skip
     std::vector<int> bsent;    // local bodies of the boundary groups of the last gather
     std::vector<double> send, recv;
     // per-atom virial (when run() is given body_virial): of the window so far, per local
