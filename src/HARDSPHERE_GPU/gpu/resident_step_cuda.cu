@@ -906,10 +906,11 @@ namespace Collide {
       if (b < n) tlast[bodies[b].owner] = fmax(bodies[b].tlast - dt, never);
     }
 
-    /// What goes back to the caller for an atom that had events (omega: rough spheres only).
+    /// What goes back to the caller for an atom that had events (56 bytes; rough spheres'
+    /// angular velocities go in an array of their own, 3 per result).
     struct AtomResult {
       int index;
-      double x[3], v[3], omega[3];
+      double x[3], v[3];
     };
 
     // Launch: one thread per body (n >= 1).  flag[b] = 1 where body b had events, else 0, and
@@ -922,26 +923,28 @@ namespace Collide {
     }
 
     // Launch: one thread per body.  The atoms that had events, in increasing body order (slot
-    // = the exclusive sum of changed_kernel's flags): end-of-step position, velocity and time
-    // of the last collision into out[slot].
+    // = the exclusive sum of changed_kernel's flags): end-of-step position and velocity into
+    // out[slot], and the angular velocity into spin[3 slot ...] (rough spheres; else null).
     __global__ void atom_results_kernel(const Body *__restrict__ bodies, int n, double dt,
-                                        const int *__restrict__ slot, AtomResult *out)
+                                        const int *__restrict__ slot, AtomResult *out,
+                                        double *spin)
     {
       const int b = blockIdx.x * blockDim.x + threadIdx.x;
       if (b >= n || bodies[b].nevents == 0) return;
       AtomResult r;
       r.index = bodies[b].owner;
       drift_position(bodies[b], dt, r.x);
-      for (int d = 0; d < 3; ++d) {
-        r.v[d] = bodies[b].v[d];
-        r.omega[d] = bodies[b].omega[d];
-      }
+      for (int d = 0; d < 3; ++d) r.v[d] = bodies[b].v[d];
       out[slot[b]] = r;
+      if (spin)
+        for (int d = 0; d < 3; ++d) spin[3 * slot[b] + d] = bodies[b].omega[d];
     }
 
     // Launch: one thread per result (changed).  Result k into the device copies of the
-    // caller's x and v (and omega, rough spheres; else null).
-    __global__ void atom_write_kernel(const AtomResult *__restrict__ res, int changed, double *x,
+    // caller's x and v, and its angular velocity spin[3 k ...] into omega (rough spheres; else
+    // both null).
+    __global__ void atom_write_kernel(const AtomResult *__restrict__ res,
+                                      const double *__restrict__ spin, int changed, double *x,
                                       double *v, double *omega)
     {
       const int k = blockIdx.x * blockDim.x + threadIdx.x;
@@ -952,7 +955,7 @@ namespace Collide {
         v[3 * r.index + d] = r.v[d];
       }
       if (omega)
-        for (int d = 0; d < 3; ++d) omega[3 * r.index + d] = r.omega[d];
+        for (int d = 0; d < 3; ++d) omega[3 * r.index + d] = spin[3 * k + d];
     }
 
     using Clock = std::chrono::steady_clock;
@@ -990,10 +993,11 @@ namespace Collide {
               &d_val2,      &d_cstart, &d_count, &d_offset,  &d_edges,  &d_deg,     &d_adj_start,
               &d_fill,      &d_adj,    &d_joined, &d_wbound, &d_parent, &d_root,    &d_size,
               &d_isroot,    &d_rsize,  &d_gid,   &d_goff,    &d_gstart, &d_gmembers, &d_best,
-              &d_sums,      &d_lexc,   &d_temp,  &d_near,    &d_neartag, &d_order})
+              &d_sums,      &d_lexc,   &d_temp,  &d_near,    &d_neartag, &d_order,  &d_rspin})
           b->release();
         if (host_scalars) cudaFreeHost(host_scalars);
-        for (PinnedBuffer *b : {&host_changed, &host_index, &host_results, &host_control})
+        for (PinnedBuffer *b :
+             {&host_changed, &host_index, &host_results, &host_rspin, &host_control})
           b->release();
         d_control.release();
         d_part.release();
@@ -1025,8 +1029,8 @@ namespace Collide {
       Scalars *host_scalars = nullptr;
       cudaEvent_t ev_up0 = nullptr, ev_up1 = nullptr;    // run_atoms(): around the uploads
       // Pinned: what comes back, run()'s bodies that had events with their indices, or
-      // run_atoms()'s results.
-      PinnedBuffer host_changed, host_index, host_results, host_control;
+      // run_atoms()'s results (and their angular velocities, rough spheres).
+      PinnedBuffer host_changed, host_index, host_results, host_rspin, host_control;
       DeviceBuffer d_control, d_part;    // order serial: the loop's state, block minima
       DeviceBuffer d_boost;              // run_atoms(): step bounds raised by a failed check
       DeviceBuffer d_budget;             // run_atoms(): the step budget's maxima (bits)
@@ -1100,6 +1104,7 @@ namespace Collide {
           d_count, d_offset, d_edges, d_deg, d_adj_start, d_fill, d_adj, d_joined, d_wbound,
           d_parent, d_root, d_size, d_isroot, d_rsize, d_gid, d_goff, d_gstart, d_gmembers, d_best,
           d_sums, d_lexc, d_temp, d_near, d_neartag, d_order;
+      DeviceBuffer d_rspin;    // run_atoms(): the results' angular velocities (rough spheres)
 
       Scalars *scalars() const { return d_scalars.as<Scalars>(); }
       int *nedges() const { return &scalars()->nedges; }
@@ -1957,9 +1962,11 @@ namespace Collide {
       const auto t_down = Clock::now();
       // In body order, so that the host writes the atoms' arrays front to back.
       d_sums.reserve((size_t) n * sizeof(AtomResult), "cudaMalloc(atom results)");
+      if (spin) d_rspin.reserve(n3, "cudaMalloc(atom results)");
+      double *d_rsp = spin ? d_rspin.as<double>() : nullptr;
       const int changed = host_scalars->changed;    // count_changed()'s
       atom_results_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
-          d_bodies.as<Body>(), n, p.dt, d_offset.as<int>(), d_sums.as<AtomResult>());
+          d_bodies.as<Body>(), n, p.dt, d_offset.as<int>(), d_sums.as<AtomResult>(), d_rsp);
       launched("atom_results_kernel");
       tlast_end_kernel<<<nblocks(n, TILE), TILE, 0, stream>>>(d_bodies.as<Body>(), n, p.dt, a.never,
                                                               d_atlast.as<double>());
@@ -1973,9 +1980,12 @@ namespace Collide {
       const bool whole = !scatter && changed > n / 32 && locked[0].p && locked[1].p;
       if (whole) {
         ++prof.whole;
-        atom_write_kernel<<<nblocks(changed), BLOCK, 0, stream>>>(
-            d_sums.as<AtomResult>(), changed, d_ax.as<double>(), d_av.as<double>(), d_spin);
-        launched("atom_write_kernel");
+        if (changed > 0) {
+          atom_write_kernel<<<nblocks(changed), BLOCK, 0, stream>>>(
+              d_sums.as<AtomResult>(), d_rsp, changed, d_ax.as<double>(), d_av.as<double>(),
+              d_spin);
+          launched("atom_write_kernel");
+        }
         cuda_check(cudaMemcpyAsync(a.x, d_ax.ptr, n3, cudaMemcpyDeviceToHost, stream),
                    "cudaMemcpy(x)");
         cuda_check(cudaMemcpyAsync(a.v, d_av.ptr, n3, cudaMemcpyDeviceToHost, stream),
@@ -1994,7 +2004,14 @@ namespace Collide {
         host_results.reserve(std::max((size_t) changed, (size_t) n / 4) * sizeof(AtomResult),
                              "cudaMallocHost(atom results)");
         fetch(d_sums, host_results, changed * sizeof(AtomResult), "cudaMemcpy(atom results)");
+        if (spin) {
+          host_rspin.reserve(std::max((size_t) changed, (size_t) n / 4) * 3 * sizeof(double),
+                             "cudaMallocHost(atom results)");
+          fetch(d_rspin, host_rspin, (size_t) changed * 3 * sizeof(double),
+                "cudaMemcpy(atom results)");
+        }
         cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(atom results)");
+        const double *w = host_rspin.as<double>();
         for (int k = 0; k < changed; ++k) {
           const AtomResult &r = host_results.as<AtomResult>()[k];
           for (int d = 0; d < 3; ++d) {
@@ -2002,7 +2019,7 @@ namespace Collide {
             a.v[3 * r.index + d] = r.v[d];
           }
           if (spin)
-            for (int d = 0; d < 3; ++d) a.omega[3 * r.index + d] = r.omega[d];
+            for (int d = 0; d < 3; ++d) a.omega[3 * r.index + d] = w[3 * k + d];
         }
       }
       report.t_download = seconds_since(t_down);
