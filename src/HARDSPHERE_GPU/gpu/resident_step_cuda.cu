@@ -19,7 +19,7 @@
                edges joined (a flag per candidate), connected components by a lock-free
                union-find whose roots are the components' smallest indices, group sizes and the
                largest (read by the host); for the window taken: groups numbered in root
-               order (CUB scans), members placed, bodies snapshot, groups partitioned by size
+               order (a CUB scan), members placed, bodies snapshot, groups partitioned by size
                (CUB): one thread per group of one or two bodies runs collision_group_loop.h's
                exact loop, one warp per larger group group_loop_warp.cuh's, per-group tallies
                reduced (CUB, a fixed order), excursions, pairs not joined that could have
@@ -54,11 +54,13 @@
 
    Debugging aids: HSGPU_RESIDENT_VERIFY=1 copies every window's groups to the host and reports
    bodies placed twice or not at all and joined edges between groups on stderr;
-   HSGPU_RESIDENT_PROFILE=1 times the phases above (waiting for the stream after each) and
-   prints the means per step on stderr at the end; HSGPU_RESIDENT_SCATTER=1 always sends the
-   changed atoms back compacted (tests run both ways); HSGPU_RESIDENT_TARGET, _SMALL, _KF and
-   _FLOOR override the window target, the largest group resolved by one thread, and the window
-   bounds' factor and floor fraction (tuning aids; no result bit depends on them). */
+   HSGPU_RESIDENT_PROFILE=1 times the phases above (waiting for the stream after each; work
+   enqueued ahead counts in the phase that reads it: the first window tried in the search, the
+   step's end in the last window's check) and prints the means per step on stderr at the end;
+   HSGPU_RESIDENT_SCATTER=1 always sends the changed atoms back compacted (tests run both ways);
+   HSGPU_RESIDENT_TARGET, _SMALL, _KF and _FLOOR override the window target, the largest group
+   resolved by one thread, and the window bounds' factor and floor fraction (tuning aids; no
+   result bit depends on them). */
 #include "resident_step_cuda.h"
 
 #include "group_loop_warp.cuh"
@@ -487,8 +489,7 @@ namespace Collide {
     // bits), or floor_fraction itself where vmax2 is null.
     __global__ void __launch_bounds__(TILE)
         window_start_kernel(Body *bodies, int n, double t0, double delta, double kf,
-                            double floor_fraction, const unsigned long long *vmax2,
-                            double *wbound)
+                            double floor_fraction, const unsigned long long *vmax2, double *wbound)
     {
       __shared__ Body tile[TILE];
       load_tile(bodies, n, tile);
@@ -544,14 +545,15 @@ namespace Collide {
       return cur;
     }
 
-    // Launch: one thread per body (n >= 1).  Every body its own root; s->largest and
-    // s->ngroups zeroed for roots_kernel.
-    __global__ void uf_init_kernel(int *parent, int *size, int n, Scalars *s)
+    // Launch: one thread per body (n >= 1).  Every body its own root; fill[b] (members_kernel's
+    // counts), s->largest and s->ngroups zeroed.
+    __global__ void uf_init_kernel(int *parent, int *size, int *fill, int n, Scalars *s)
     {
       const int b = blockIdx.x * blockDim.x + threadIdx.x;
       if (b >= n) return;
       parent[b] = b;
       size[b] = 0;
+      fill[b] = 0;
       if (b == 0) {
         s->largest = 0;
         s->ngroups = 0;
@@ -591,41 +593,45 @@ namespace Collide {
       atomicAdd(&size[r], 1);
     }
 
+    /// Sums of (is a root, group size at the root) pairs: the groups' numbers and offsets.
+    struct Int2Add {
+      __device__ int2 operator()(const int2 &a, const int2 &b) const
+      {
+        return make_int2(a.x + b.x, a.y + b.y);
+      }
+    };
+
     // Launch: one thread per body (n >= 1), after uf_init_kernel.  Roots: the largest group and
-    // the number of groups into s; isroot[b] and rsize[b] (the group's size at its root, else
-    // 0) for the numbering scans, and isroot[n] = rsize[n] = 0 (their scans take n + 1).
+    // the number of groups into s; rk[b] = (1, the group's size) at a root, else (0, 0), for
+    // the numbering scan, and rk[n] = (0, 0) (the scan takes n + 1).
     __global__ void roots_kernel(const int *__restrict__ root, const int *__restrict__ size, int n,
-                                 int *isroot, int *rsize, Scalars *s)
+                                 int2 *rk, Scalars *s)
     {
       const int b = blockIdx.x * blockDim.x + threadIdx.x;
       if (b >= n) return;
-      if (b == 0) {
-        isroot[n] = 0;
-        rsize[n] = 0;
-      }
+      if (b == 0) rk[n] = make_int2(0, 0);
       const bool is = root[b] == b;
-      isroot[b] = is ? 1 : 0;
-      rsize[b] = is ? size[b] : 0;
+      rk[b] = is ? make_int2(1, size[b]) : make_int2(0, 0);
       if (is) {
         atomicMax(&s->largest, size[b]);
         atomicAdd(&s->ngroups, 1);
       }
     }
 
-    // Launch: one thread per body (n >= 1).  Group g (numbered in root order: gid = exclusive
-    // scan of isroot) starts at goff[root] (exclusive scan of rsize); members placed by
-    // atomics.  s->next_group zeroed for resolve_kernel.
-    __global__ void members_kernel(const int *__restrict__ root, const int *__restrict__ gid,
-                                   const int *__restrict__ goff, int n, int ngroups, int *gstart,
-                                   int *fill, int *gmembers, Scalars *s)
+    // Launch: one thread per body (n >= 1).  Group g (numbered in root order: gk[b].x, the
+    // exclusive scan of roots_kernel's root flags) starts at gk[root].y (the exclusive scan of
+    // its sizes); members placed by atomics on fill (zeroed by uf_init_kernel).
+    // s->next_group zeroed for resolve_kernel.
+    __global__ void members_kernel(const int *__restrict__ root, const int2 *__restrict__ gk, int n,
+                                   int ngroups, int *gstart, int *fill, int *gmembers, Scalars *s)
     {
       const int b = blockIdx.x * blockDim.x + threadIdx.x;
       if (b >= n) return;
       if (b == 0) s->next_group = 0;
       const int r = root[b];
-      if (r == b) gstart[gid[b]] = goff[b];
+      if (r == b) gstart[gk[b].x] = gk[b].y;
       if (b == 0) gstart[ngroups] = n;
-      gmembers[goff[r] + atomicAdd(&fill[r], 1)] = b;
+      gmembers[gk[r].y + atomicAdd(&fill[r], 1)] = b;
     }
 
     /// A group's tally as the window's sums take it.
@@ -926,8 +932,7 @@ namespace Collide {
     // = the exclusive sum of changed_kernel's flags): end-of-step position and velocity into
     // out[slot], and the angular velocity into spin[3 slot ...] (rough spheres; else null).
     __global__ void atom_results_kernel(const Body *__restrict__ bodies, int n, double dt,
-                                        const int *__restrict__ slot, AtomResult *out,
-                                        double *spin)
+                                        const int *__restrict__ slot, AtomResult *out, double *spin)
     {
       const int b = blockIdx.x * blockDim.x + threadIdx.x;
       if (b >= n || bodies[b].nevents == 0) return;
@@ -989,11 +994,11 @@ namespace Collide {
       {
         cudaSetDevice(device);
         for (DeviceBuffer *b :
-             {&d_bodies,    &d_snap,   &d_bound, &d_scalars, &d_key,    &d_val,     &d_key2,
-              &d_val2,      &d_cstart, &d_count, &d_offset,  &d_edges,  &d_deg,     &d_adj_start,
-              &d_fill,      &d_adj,    &d_joined, &d_wbound, &d_parent, &d_root,    &d_size,
-              &d_isroot,    &d_rsize,  &d_gid,   &d_goff,    &d_gstart, &d_gmembers, &d_best,
-              &d_sums,      &d_lexc,   &d_temp,  &d_near,    &d_neartag, &d_order,  &d_rspin})
+             {&d_bodies, &d_snap,   &d_bound,  &d_scalars, &d_key,      &d_val,  &d_key2,
+              &d_val2,   &d_cstart, &d_count,  &d_offset,  &d_edges,    &d_deg,  &d_adj_start,
+              &d_fill,   &d_adj,    &d_joined, &d_wbound,  &d_parent,   &d_root, &d_size,
+              &d_isroot, &d_gid,    &d_goff,   &d_gstart,  &d_gmembers, &d_best, &d_sums,
+              &d_lexc,   &d_temp,   &d_near,   &d_neartag, &d_order,    &d_rspin})
           b->release();
         if (host_scalars) cudaFreeHost(host_scalars);
         for (PinnedBuffer *b :
@@ -1102,8 +1107,8 @@ namespace Collide {
       long edge_threads = 0;
       DeviceBuffer d_bodies, d_snap, d_bound, d_scalars, d_key, d_val, d_key2, d_val2, d_cstart,
           d_count, d_offset, d_edges, d_deg, d_adj_start, d_fill, d_adj, d_joined, d_wbound,
-          d_parent, d_root, d_size, d_isroot, d_rsize, d_gid, d_goff, d_gstart, d_gmembers, d_best,
-          d_sums, d_lexc, d_temp, d_near, d_neartag, d_order;
+          d_parent, d_root, d_size, d_isroot, d_gid, d_goff, d_gstart, d_gmembers, d_best, d_sums,
+          d_lexc, d_temp, d_near, d_neartag, d_order;
       DeviceBuffer d_rspin;    // run_atoms(): the results' angular velocities (rough spheres)
 
       Scalars *scalars() const { return d_scalars.as<Scalars>(); }
@@ -1342,8 +1347,8 @@ namespace Collide {
        the number of components go to the scalars (Scalars::largest, ngroups). */
     void CudaResidentStep::components()
     {
-      uf_init_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_parent.as<int>(), d_size.as<int>(), n,
-                                                       scalars());
+      uf_init_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_parent.as<int>(), d_size.as<int>(),
+                                                       d_fill.as<int>(), n, scalars());
       launched("uf_init_kernel");
       if (edge_threads > 0) {
         uf_unite_kernel<<<nblocks(edge_threads), BLOCK, 0, stream>>>(
@@ -1353,20 +1358,27 @@ namespace Collide {
       uf_roots_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_parent.as<int>(), d_root.as<int>(),
                                                         d_size.as<int>(), n);
       launched("uf_roots_kernel");
-      roots_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
-          d_root.as<int>(), d_size.as<int>(), n, d_isroot.as<int>(), d_rsize.as<int>(), scalars());
+      roots_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_root.as<int>(), d_size.as<int>(), n,
+                                                     d_isroot.as<int2>(), scalars());
       launched("roots_kernel");
     }
 
     /* The groups of the last components(): numbered in root order, members placed. */
     void CudaResidentStep::groups(int ngroups)
     {
-      exclusive_sum(d_isroot.as<int>(), d_gid.as<int>(), n + 1);
-      exclusive_sum(d_rsize.as<int>(), d_goff.as<int>(), n + 1);
-      cuda_check(cudaMemsetAsync(d_fill.ptr, 0, (n + 1) * sizeof(int), stream), "cudaMemset");
+      // Group numbers and offsets in one scan of (root flag, size) pairs.
+      size_t bytes = 0;
+      const int2 none = make_int2(0, 0);
+      cuda_check(cub::DeviceScan::ExclusiveScan(nullptr, bytes, d_isroot.as<int2>(),
+                                                d_goff.as<int2>(), Int2Add(), none, n + 1, stream),
+                 "cub::DeviceScan");
+      d_temp.reserve(bytes + 16, "cudaMalloc(scan scratch)");
+      cuda_check(cub::DeviceScan::ExclusiveScan(d_temp.ptr, bytes, d_isroot.as<int2>(),
+                                                d_goff.as<int2>(), Int2Add(), none, n + 1, stream),
+                 "cub::DeviceScan");
       members_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
-          d_root.as<int>(), d_gid.as<int>(), d_goff.as<int>(), n, ngroups, d_gstart.as<int>(),
-          d_fill.as<int>(), d_gmembers.as<int>(), scalars());
+          d_root.as<int>(), d_goff.as<int2>(), n, ngroups, d_gstart.as<int>(), d_fill.as<int>(),
+          d_gmembers.as<int>(), scalars());
       launched("members_kernel");
     }
 
@@ -1454,9 +1466,11 @@ namespace Collide {
       d_scalars.reserve(sizeof(Scalars) + ntables * sizeof(double), "cudaMalloc(scalars)");
       for (DeviceBuffer *b : {&d_bound, &d_wbound, &d_lexc})
         b->reserve(n * sizeof(double), "cudaMalloc(bounds)");
-      for (DeviceBuffer *b : {&d_parent, &d_root, &d_size, &d_isroot, &d_rsize, &d_gid, &d_goff,
-                              &d_gstart, &d_gmembers})
+      for (DeviceBuffer *b : {&d_parent, &d_root, &d_size, &d_gid, &d_gstart, &d_gmembers})
         b->reserve((n + 1) * sizeof(int), "cudaMalloc(groups)");
+      // (root flag, size) pairs and their scan (roots_kernel, groups()).
+      for (DeviceBuffer *b : {&d_isroot, &d_goff})
+        b->reserve((n + 1) * sizeof(int2), "cudaMalloc(groups)");
       // The restitution table lives after the scalars.
       d_epair = reinterpret_cast<double *>(d_scalars.as<char>() + sizeof(Scalars));
       cuda_check(cudaMemcpyAsync(d_epair, p.epair, ntypes2 * sizeof(double), cudaMemcpyHostToDevice,
