@@ -309,6 +309,18 @@ namespace Collide {
       val[b] = b;
     }
 
+    // Launch: grid-stride, any number of threads.  The ranges of the cells of s->grid (at most
+    // most_cells(n)) emptied: cstart[c] = cend[c] = 0.
+    __global__ void zero_cells_kernel(const Scalars *s, int *cstart, int *cend)
+    {
+      const long cells = (long) s->grid.n[0] * s->grid.n[1] * s->grid.n[2];
+      const long stride = (long) gridDim.x * blockDim.x;
+      for (long c = blockIdx.x * (long) blockDim.x + threadIdx.x; c < cells; c += stride) {
+        cstart[c] = 0;
+        cend[c] = 0;
+      }
+    }
+
     /// What the pair search reads of a body, stored in cell order so that a cell's bodies lie
     /// side by side (48 bytes instead of three scattered lines of a 208-byte Body).
     struct NearPoint {
@@ -1275,7 +1287,11 @@ namespace Collide {
                                                  d_key2.as<int>(), d_val.as<int>(),
                                                  d_val2.as<int>(), n, 0, end_bit, stream),
                  "cub::DeviceRadixSort");
-      cuda_check(cudaMemsetAsync(d_cstart.ptr, 0, 2 * cells * sizeof(int), stream), "cudaMemset");
+      // Only the grid's own cells emptied (a memset of the most there can be would write up to
+      // 16 bytes per body).
+      zero_cells_kernel<<<std::min(nblocks(cells), 2048), BLOCK, 0, stream>>>(scalars(), cstart(),
+                                                                             cend());
+      launched("zero_cells_kernel");
       d_near.reserve(n * sizeof(NearPoint), "cudaMalloc(search points)");
       d_neartag.reserve(n * sizeof(NearTag), "cudaMalloc(search points)");
       cell_range_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
