@@ -37,14 +37,15 @@
 
    The host waits for the device where it needs a number to go on, and reads every scalar it
    needs then (Scalars, one download): once for the scan, the search and the first window
-   the chooser tries (set up ahead: the chooser's first_end()); once per further window
-   tried; once per resolve pass, for its check, which for the step's last window carries the
-   step's end too (enqueued ahead: a repair undoes it with the bodies); once per repair, for
-   its components; once for the results.  Work enqueued ahead and found unneeded (a step
-   that declines, a repair) is thrown away or done again from the snapshot: no result bit
-   depends on it.  Where the candidates did not fit their room, the search writes them again
-   (another wait); after a step that declined for a small box, the next waits for its grid
-   before searching.
+   length the chooser tries (set up ahead: the chooser's first_end()); once per resolve pass,
+   for its check, which brings the next window's first try (set up ahead likewise, into the
+   other of two sets of window bounds and joined flags) or, after the step's last window,
+   the step's end (a repair undoes either with the bodies); once per further window length
+   tried; once per repair, for its components; once for the results.  Work enqueued ahead
+   and found unneeded (a step that declines, a repair) is thrown away or done again from the
+   snapshot: no result bit depends on it, and the chooser sees the same windows.  Where the
+   candidates did not fit their room, the search writes them again (another wait); after a
+   step that declined for a small box, the next waits for its grid before searching.
 
    Every body and event computation is core/'s, compiled with --fmad=false (collide.cmake), so
    the events, and every bit of the bodies, are the step driver's.  Components are sets, the
@@ -55,8 +56,9 @@
    Debugging aids: HSGPU_RESIDENT_VERIFY=1 copies every window's groups to the host and reports
    bodies placed twice or not at all and joined edges between groups on stderr;
    HSGPU_RESIDENT_PROFILE=1 times the phases above (waiting for the stream after each; work
-   enqueued ahead counts in the phase that reads it: the first window tried in the search, the
-   step's end in the last window's check) and prints the means per step on stderr at the end;
+   enqueued ahead counts in the phase that reads it: the first window tried in the search, a
+   later window's first try in the check before it, the step's end in the last window's
+   check) and prints the means per step on stderr at the end;
    HSGPU_RESIDENT_SCATTER=1 always sends the changed atoms back compacted (tests run both ways);
    HSGPU_RESIDENT_TARGET, _SMALL, _KF and _FLOOR override the window target, the largest group
    resolved by one thread, and the window bounds' factor and floor fraction (tuning aids; no
@@ -1010,7 +1012,8 @@ namespace Collide {
               &d_val2,   &d_cstart, &d_count,  &d_offset,  &d_edges,    &d_deg,  &d_adj_start,
               &d_fill,   &d_adj,    &d_joined, &d_wbound,  &d_parent,   &d_root, &d_size,
               &d_isroot, &d_gid,    &d_goff,   &d_gstart,  &d_gmembers, &d_best, &d_sums,
-              &d_lexc,   &d_temp,   &d_near,   &d_neartag, &d_order,    &d_rspin})
+              &d_lexc,   &d_temp,   &d_near,   &d_neartag, &d_order,    &d_rspin,
+              &d_wbound2, &d_joined2})
           b->release();
         if (host_scalars) cudaFreeHost(host_scalars);
         for (PinnedBuffer *b :
@@ -1122,6 +1125,14 @@ namespace Collide {
           d_parent, d_root, d_size, d_isroot, d_gid, d_goff, d_gstart, d_gmembers, d_best, d_sums,
           d_lexc, d_temp, d_near, d_neartag, d_order;
       DeviceBuffer d_rspin;    // run_atoms(): the results' angular velocities (rough spheres)
+      // Window bounds and joined flags come in two sets, window k's in set k % 2, so that the
+      // next window's first try can be set up while this one's check may still repair it.
+      DeviceBuffer d_wbound2, d_joined2;
+      double *wbound(int set) const { return (set ? d_wbound2 : d_wbound).as<double>(); }
+      unsigned char *joined(int set) const
+      {
+        return (set ? d_joined2 : d_joined).as<unsigned char>();
+      }
 
       Scalars *scalars() const { return d_scalars.as<Scalars>(); }
       int *nedges() const { return &scalars()->nedges; }
@@ -1230,9 +1241,9 @@ namespace Collide {
       void search_pairs();
       bool small_box_last = false;    // the last step declined for a box of too few cells
       void fill_edges();
-      void verify_groups(int ngroups, const char *where);
-      void try_window(double t0, double t1, double kf, double floor_fraction);
-      void components();
+      void verify_groups(int ngroups, const char *where, int set);
+      void try_window(double t0, double t1, double kf, double floor_fraction, int set);
+      void components(int set);
       void step_end(double dt);
       void groups(int ngroups);
       void resolve_groups(const GroupGraph &graph, int ngroups, double t_end, const Params &dp,
@@ -1339,36 +1350,37 @@ namespace Collide {
         launched("adjacency_kernel");
       }
       d_joined.reserve((size_t) room + 1, "cudaMalloc(joined flags)");
+      d_joined2.reserve((size_t) room + 1, "cudaMalloc(joined flags)");
     }
 
-    /* The window [t0, t1) set up, enqueued only: start points and bounds (floor_fraction x
-       the scan's fastest speed), edges joined, components(). */
-    void CudaResidentStep::try_window(double t0, double t1, double kf, double floor_fraction)
+    /* The window [t0, t1) set up, enqueued only: start points, bounds (floor_fraction x the
+       scan's fastest speed) and joined edges (into the buffers of `set`), components(set). */
+    void CudaResidentStep::try_window(double t0, double t1, double kf, double floor_fraction,
+                                      int set)
     {
       window_start_kernel<<<nblocks(n, TILE), TILE, 0, stream>>>(
-          d_bodies.as<Body>(), n, t0, t1 - t0, kf, floor_fraction, &scalars()->vmax2,
-          d_wbound.as<double>());
+          d_bodies.as<Body>(), n, t0, t1 - t0, kf, floor_fraction, &scalars()->vmax2, wbound(set));
       launched("window_start_kernel");
       if (edge_threads > 0) {
         join_kernel<<<nblocks(edge_threads), BLOCK, 0, stream>>>(
-            d_bodies.as<Body>(), d_edges.as<Edge>(), nedges(), d_wbound.as<double>(),
-            d_joined.as<unsigned char>());
+            d_bodies.as<Body>(), d_edges.as<Edge>(), nedges(), wbound(set), joined(set));
         launched("join_kernel");
       }
-      components();
+      components(set);
     }
 
     /* Components of the joined edges, enqueued only: parent[] holds every body's root (its
        component's smallest index), size[] the sizes at the roots; the largest component and
-       the number of components go to the scalars (Scalars::largest, ngroups). */
-    void CudaResidentStep::components()
+       the number of components go to the scalars (Scalars::largest, ngroups); joined flags
+       of `set`. */
+    void CudaResidentStep::components(int set)
     {
       uf_init_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_parent.as<int>(), d_size.as<int>(),
                                                        d_fill.as<int>(), n, scalars());
       launched("uf_init_kernel");
       if (edge_threads > 0) {
         uf_unite_kernel<<<nblocks(edge_threads), BLOCK, 0, stream>>>(
-            d_edges.as<Edge>(), nedges(), d_joined.as<unsigned char>(), d_parent.as<int>());
+            d_edges.as<Edge>(), nedges(), joined(set), d_parent.as<int>());
         launched("uf_unite_kernel");
       }
       uf_roots_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_parent.as<int>(), d_root.as<int>(),
@@ -1440,7 +1452,7 @@ namespace Collide {
 
     /* Debugging aid (HSGPU_RESIDENT_VERIFY=1): the groups on the host, checked against the
        joined edges. */
-    void CudaResidentStep::verify_groups(int ngroups, const char *where)
+    void CudaResidentStep::verify_groups(int ngroups, const char *where, int set)
     {
       std::vector<int> parent(n), gstart(ngroups + 1), gmembers(n);
       std::vector<unsigned char> joined(ne);
@@ -1449,7 +1461,7 @@ namespace Collide {
       cudaMemcpy(parent.data(), d_root.ptr, n * sizeof(int), cudaMemcpyDeviceToHost);
       cudaMemcpy(gstart.data(), d_gstart.ptr, (ngroups + 1) * sizeof(int), cudaMemcpyDeviceToHost);
       cudaMemcpy(gmembers.data(), d_gmembers.ptr, n * sizeof(int), cudaMemcpyDeviceToHost);
-      cudaMemcpy(joined.data(), d_joined.ptr, ne, cudaMemcpyDeviceToHost);
+      cudaMemcpy(joined.data(), this->joined(set), ne, cudaMemcpyDeviceToHost);
       cudaMemcpy(edges.data(), d_edges.ptr, ne * sizeof(Edge), cudaMemcpyDeviceToHost);
       std::vector<int> group_of(n, -1);
       int bad = 0;
@@ -1480,7 +1492,7 @@ namespace Collide {
       d_sums.reserve(n * sizeof(WinSum), "cudaMalloc(group tallies)");
       const size_t ntables = p.friction ? 3 * ntypes2 : ntypes2;    // + mu, beta0 per pair
       d_scalars.reserve(sizeof(Scalars) + ntables * sizeof(double), "cudaMalloc(scalars)");
-      for (DeviceBuffer *b : {&d_bound, &d_wbound, &d_lexc})
+      for (DeviceBuffer *b : {&d_bound, &d_wbound, &d_wbound2, &d_lexc})
         b->reserve(n * sizeof(double), "cudaMalloc(bounds)");
       for (DeviceBuffer *b : {&d_parent, &d_root, &d_size, &d_gid, &d_gstart, &d_gmembers})
         b->reserve((n + 1) * sizeof(int), "cudaMalloc(groups)");
@@ -1566,8 +1578,8 @@ namespace Collide {
       if (edge_room <= 0) edge_room = 2L * n + 1024;    // the first step: a guess
       search_pairs();
       edge_threads = edge_room;
-      const double t_first = serial ? dt : chooser.first_end(0.0, 0, dt, s);
-      if (!serial) try_window(0.0, t_first, bound_factor, floor_fraction);
+      double t_first = serial ? dt : chooser.first_end(0.0, 0, dt, s);
+      if (!serial) try_window(0.0, t_first, bound_factor, floor_fraction, 0);
       Scalars sc = download_scalars();
       if (sc.overlap) return decline_early(ResidentOutcome::overlap);    // a wall
       if (sc.small_box) return decline_early(ResidentOutcome::small_box);
@@ -1577,7 +1589,7 @@ namespace Collide {
         edge_room = (long) sc.candidates + sc.candidates / 4 + 1024;
         fill_edges();
         edge_threads = edge_room;
-        if (!serial) try_window(0.0, t_first, bound_factor, floor_fraction);
+        if (!serial) try_window(0.0, t_first, bound_factor, floor_fraction, 0);
         sc = download_scalars();
       }
       small_box_last = false;
@@ -1587,18 +1599,18 @@ namespace Collide {
       grid = sc.grid;
       // The next step's room: a quarter more than this one's pairs.
       edge_room = (long) ne + ne / 4 + 1024;
-      // The first window, set up above: its largest group and groups (the chooser's first
-      // try, try_window(0, t_first)).
+      // A window set up ahead, the chooser's first try for window first_k, try_window(t0,
+      // t_first): its largest group and groups.  The first window's was set up above; each
+      // later one's is set up with the check of the window before it.
       bool first_ready = !serial;
-      const long first_largest = sc.largest;
-      const int first_ngroups = sc.ngroups;
+      int first_k = 0;
+      long first_largest = sc.largest;
+      int first_ngroups = sc.ngroups;
       mark(Profile::search);
       report.t_search = seconds_since(t_start);
       windows_start = Clock::now();
       const auto t_windows = windows_start;
 
-      const GroupGraph graph{d_bodies.as<Body>(), d_edges.as<Edge>(), d_adj_start.as<int>(),
-                             d_adj.as<int>(),     d_best.as<Event>(), d_joined.as<unsigned char>()};
       WindowStats &stats = report.stats;
       double t0 = 0.0;
       int k = 0;
@@ -1614,28 +1626,33 @@ namespace Collide {
         }
         mark(Profile::resolve);
       }
-      // The step's end (end_kernel, count_changed()) is enqueued with the last window's check
-      // and read in the same download; a repair after it takes the bodies back to the
-      // snapshot, and the end is enqueued again with the next check.
+      // The step's end (end_kernel, count_changed()) is enqueued with the last window's check,
+      // the next window's first try with the check of any other, and read in the same
+      // download; a repair after it takes the bodies back to the snapshot (and recomputes the
+      // components from this window's joined flags, the other set's are the next window's),
+      // and the end or the next window's try is enqueued again with the next check.
       bool ended = false;
       while (!serial && t0 < dt) {
         long largest;
         int ngroups = 0;
+        const int set = k % 2;    // this window's bounds and joined flags
         auto try_end = [&](double t1) -> long {
           ++prof.tries;
-          if (first_ready && k == 0 && t1 == t_first) {    // set up with the search
+          if (first_ready && first_k == k && t1 == t_first) {    // set up ahead
             first_ready = false;
             ngroups = first_ngroups;
             return first_largest;
           }
           first_ready = false;    // the device now holds another window
-          try_window(t0, t1, bound_factor, floor_fraction);
+          try_window(t0, t1, bound_factor, floor_fraction, set);
           const Scalars &c = download_scalars();
           ngroups = c.ngroups;
           return c.largest;
         };
         const double t1 = chooser.next(t0, k, dt, s, target, try_end, largest);
         first_ready = false;
+        const GroupGraph graph{d_bodies.as<Body>(), d_edges.as<Edge>(), d_adj_start.as<int>(),
+                               d_adj.as<int>(),     d_best.as<Event>(), joined(set)};
         mark(Profile::choose);
         cuda_check(cudaMemcpyAsync(d_snap.ptr, d_bodies.ptr, n * sizeof(Body),
                                    cudaMemcpyDeviceToDevice, stream),
@@ -1643,11 +1660,13 @@ namespace Collide {
         mark(Profile::snapshot);
         const long budget = p.maxevents - total.events;
         const bool last = !(t1 < dt);    // the loop's end
+        // The next window's first try (the chooser's state is the next window's now).
+        const double t_next = last ? dt : chooser.first_end(t1, k + 1, dt, s);
         WinSum win;
         static const bool verify = std::getenv("HSGPU_RESIDENT_VERIFY") != nullptr;
         while (true) {
           groups(ngroups);
-          if (verify) verify_groups(ngroups, "window");
+          if (verify) verify_groups(ngroups, "window", set);
           mark(Profile::groups);
           resolve_groups(graph, ngroups, t1, dp, budget);
           ++prof.passes;
@@ -1667,11 +1686,16 @@ namespace Collide {
           launched("excursion_kernel");
           if (ne > 0) {
             missed_kernel<<<nblocks(ne), BLOCK, 0, stream>>>(
-                d_bodies.as<Body>(), d_edges.as<Edge>(), d_wbound.as<double>(),
-                d_lexc.as<double>(), d_joined.as<unsigned char>(), scalars());
+                d_bodies.as<Body>(), d_edges.as<Edge>(), wbound(set), d_lexc.as<double>(),
+                joined(set), scalars());
             launched("missed_kernel");
           }
-          if (last) step_end(dt);    // ahead of the check, undone by a repair
+          // Ahead of the check, undone by a repair: the step's end, or the next window's first
+          // try (into the other set of bounds and flags).
+          if (last)
+            step_end(dt);
+          else
+            try_window(t1, t_next, bound_factor, floor_fraction, 1 - set);
           const Scalars &r = download_scalars();
           mark(Profile::check);
           win = r.win;
@@ -1681,6 +1705,13 @@ namespace Collide {
           }
           if (r.missed == 0) {
             ended = last;
+            if (!last) {    // the next window's first try came back with the check
+              first_ready = true;
+              first_k = k + 1;
+              t_first = t_next;
+              first_largest = r.largest;
+              first_ngroups = r.ngroups;
+            }
             break;
           }
           // Joined pairs that could have touched: the window again from its start.
@@ -1688,7 +1719,7 @@ namespace Collide {
           cuda_check(cudaMemcpyAsync(d_bodies.ptr, d_snap.ptr, n * sizeof(Body),
                                      cudaMemcpyDeviceToDevice, stream),
                      "cudaMemcpy(snapshot back)");
-          components();
+          components(set);
           const Scalars &c = download_scalars();
           largest = std::max(largest, (long) c.largest);
           ngroups = c.ngroups;
