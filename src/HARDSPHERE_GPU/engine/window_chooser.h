@@ -54,23 +54,32 @@ namespace Collide {
     /// never changes a result bit).
     void set_growth(double g) { growth = g > 1.0 ? g : 2.0; }
 
+    /// The end that next(t0, k, dt, s, ...) tries first, so that a caller may set that window
+    /// up ahead (the device-resident step does, before it waits for its candidate search).
+    double first_end(double t0, int k, double dt, const WindowSettings &s) const
+    {
+      if (s.nwindows > 0)
+        return (k + 1 >= s.nwindows) ? dt : dt * (double) (k + 1) / (double) s.nwindows;
+      double t1 = t0 + guess;
+      if (t1 > dt * (1.0 - 1e-9)) t1 = dt;
+      if (stuck_left > 0 && k > 0) t1 = dt;    // the rest of the step
+      return t1;
+    }
+
     /// The end of window k, which starts at t0.  try_window(t1) sets up the window [t0, t1)
     /// (its edges and groups) and returns its largest group over all ranks; the last call is
-    /// for the returned end, whose largest group is left in `largest`.
+    /// for the returned end, whose largest group is left in `largest`.  The first call is for
+    /// first_end(t0, k, dt, s).
     template <class TryWindow>
     double next(double t0, int k, double dt, const WindowSettings &s, long target_group,
                 TryWindow &&try_window, long &largest)
     {
-      double t1;
+      double t1 = first_end(t0, k, dt, s);
       if (s.nwindows > 0) {
-        t1 = (k + 1 >= s.nwindows) ? dt : dt * (double) (k + 1) / (double) s.nwindows;
         largest = try_window(t1);
         return t1;
       }
       const bool rest_of_step = stuck_left > 0 && k > 0;
-      t1 = t0 + guess;
-      if (t1 > dt * (1.0 - 1e-9)) t1 = dt;
-      if (rest_of_step) t1 = dt;
       largest = try_window(t1);
       if (!rest_of_step) {
         tried.clear();

@@ -9,15 +9,17 @@
                the device (through a tile in shared memory)
      scan:     largest r + bound, fastest drift, wall overlaps     (one thread per body, block
                reductions, one atomic per block)
-     search:   cell of every start point, CUB radix sort by cell, cell ranges and the start
-               points in cell order, candidate pairs counted, CUB scan, written (one thread per
-               body, the 13 cells on one side of it and the later bodies of its own: each pair
-               once), pair overlaps; CSR adjacency of the candidates
+     search:   the grid of cells (from the scan's largest reach, on the device), cell of every
+               start point, CUB radix sort by cell, cell ranges and the start points in cell
+               order, candidate pairs counted, CUB scan, written (one thread per body, the 13
+               cells on one side of it and the later bodies of its own: each pair once) into
+               room for a quarter more than the last step's, pair overlaps; CSR adjacency of
+               the candidates
      windows:  for each window length tried (window_chooser.h): window start points and bounds,
                edges joined (a flag per candidate), connected components by a lock-free
                union-find whose roots are the components' smallest indices, group sizes and the
-               largest (one 8-byte download); for the window taken: groups numbered in root
-               order (CUB scans), members placed, bodies snapshot, groups partitioned by size
+               largest (read by the host); for the window taken: groups numbered in root
+               order (a CUB scan), members placed, bodies snapshot, groups partitioned by size
                (CUB): one thread per group of one or two bodies runs collision_group_loop.h's
                exact loop, one warp per larger group group_loop_warp.cuh's, per-group tallies
                reduced (CUB, a fixed order), excursions, pairs not joined that could have
@@ -33,6 +35,18 @@
                page-locked, written into the device copies and x and v copied back whole;
                every atom's tlast shifted to the step end and copied back whole)
 
+   The host waits for the device where it needs a number to go on, and reads every scalar it
+   needs then (Scalars, one download): once for the scan, the search and the first window
+   length the chooser tries (set up ahead: the chooser's first_end()); once per resolve pass,
+   for its check, which brings the next window's first try (set up ahead likewise, into the
+   other of two sets of window bounds and joined flags) or, after the step's last window,
+   the step's end (a repair undoes either with the bodies); once per further window length
+   tried; once per repair, for its components; once for the results.  Work enqueued ahead
+   and found unneeded (a step that declines, a repair) is thrown away or done again from the
+   snapshot: no result bit depends on it, and the chooser sees the same windows.  Where the
+   candidates did not fit their room, the search writes them again (another wait); after a
+   step that declined for a small box, the next waits for its grid before searching.
+
    Every body and event computation is core/'s, compiled with --fmad=false (collide.cmake), so
    the events, and every bit of the bodies, are the step driver's.  Components are sets, the
    order of members and edges within a group does not change which event is earliest (no two
@@ -41,11 +55,14 @@
 
    Debugging aids: HSGPU_RESIDENT_VERIFY=1 copies every window's groups to the host and reports
    bodies placed twice or not at all and joined edges between groups on stderr;
-   HSGPU_RESIDENT_PROFILE=1 times the phases above (waiting for the stream after each) and
-   prints the means per step on stderr at the end; HSGPU_RESIDENT_SCATTER=1 always sends the
-   changed atoms back compacted (tests run both ways); HSGPU_RESIDENT_TARGET, _SMALL, _KF and
-   _FLOOR override the window target, the largest group resolved by one thread, and the window
-   bounds' factor and floor fraction (tuning aids; no result bit depends on them). */
+   HSGPU_RESIDENT_PROFILE=1 times the phases above (waiting for the stream after each; work
+   enqueued ahead counts in the phase that reads it: the first window tried in the search, a
+   later window's first try in the check before it, the step's end in the last window's
+   check) and prints the means per step on stderr at the end;
+   HSGPU_RESIDENT_SCATTER=1 always sends the changed atoms back compacted (tests run both ways);
+   HSGPU_RESIDENT_TARGET, _SMALL, _KF and _FLOOR override the window target, the largest group
+   resolved by one thread, and the window bounds' factor and floor fraction (tuning aids; no
+   result bit depends on them). */
 #include "resident_step_cuda.h"
 
 #include "group_loop_warp.cuh"
@@ -115,31 +132,40 @@ namespace Collide {
       }
     };
 
-    /// Device scalars, downloaded together.
-    struct Scalars {
-      unsigned long long maxreach;    // bits of the largest r + bound (non-negative double)
-      unsigned long long vmax2;       // bits of the largest |v|^2
-      int overlap;                    // a pair or wall overlaps at the start points
-      int largest;                    // largest group of the window tried
-      int ngroups;                    // groups of the window tried
-      int missed;                     // pairs joined by the window's check
-      int excursion;                  // bodies beyond their step bound
-      int missed_step;                // a pair that was not a candidate could have touched
-      int changed;                    // bodies with events, compacted for the download
-      unsigned long long rmax;        // bits of the largest radius
-      unsigned long long maxexc;      // bits of the largest excursion in the step
-      unsigned long long vend2;       // bits of the largest |v|^2 at the step end
-      int candidates;                 // candidate pairs
-      int nmulti;                     // groups of two or more bodies (the rest: single bodies)
-      int next_group;                 // resolve_kernel's next group to take
-      WinSum win;                     // the window's tally
-    };
-
     /// The search grid: cell widths, counts, periodic flags.
     struct Grid {
       double lo[3], prd[3], width[3];
       int n[3];
       int periodic[3];
+    };
+
+    /// What end_kernel and step_check_kernel find (zeroed together before end_kernel).
+    struct EndSums {
+      unsigned long long maxexc;    // bits of the largest excursion in the step
+      unsigned long long vend2;     // bits of the largest |v|^2 at the step end
+      int excursion;                // bodies beyond their step bound
+      int missed_step;              // a pair that was not a candidate could have touched
+    };
+
+    /// Device scalars, downloaded together.
+    struct Scalars {
+      unsigned long long maxreach;    // bits of the largest r + bound (non-negative double)
+      unsigned long long vmax2;       // bits of the largest |v|^2
+      int overlap;                    // a sphere and a wall overlap at the start points
+      int pair_overlap;               // a pair overlaps at the start points
+      int small_box;                  // a periodic length holds fewer than three cells
+      int largest;                    // largest group of the window tried
+      int ngroups;                    // groups of the window tried
+      int missed;                     // pairs joined by the window's check
+      int changed;                    // bodies with events, compacted for the download
+      int candidates;                 // candidate pairs
+      int nedges;                     // of them written: min(candidates, the room for them)
+      unsigned long long rmax;        // bits of the largest radius
+      EndSums end;                    // the step's end and check
+      int nmulti;                     // groups of two or more bodies (the rest: single bodies)
+      int next_group;                 // resolve_kernel's next group to take
+      Grid grid;                      // the search's cells (cell_kernel's)
+      WinSum win;                     // the window's tally
     };
 
     __device__ void atomic_max_bits(unsigned long long *a, double v)
@@ -221,15 +247,80 @@ namespace Collide {
       return (int) c;
     }
 
-    // Launch: one thread per body.  key[b] = the cell of b's start point, val[b] = b.
-    __global__ void cell_kernel(const Body *__restrict__ bodies, int n, Grid g, int *key, int *val)
+    /* The search grid of n bodies whose largest r + bound is maxreach, in the box g holds (lo,
+       prd and periodic set; width and n filled in): cells at least as wide as the longest
+       candidate range, with a margin for rounding; no more of them than about twice the
+       bodies (a dilute system gets wider cells), so at most most_cells(n) = max(2 n + 64, 27).
+       Returns whether a periodic length holds fewer than three cells (the step then declines;
+       the grid filled in is still one the kernels can use).  std::min and std::max spelled
+       out: the host computed the same grid with them. */
+    __device__ bool search_grid(double maxreach, int n, Grid &g)
     {
+      const double w = 2.0 * maxreach * (1.0 + 1e-9) + 1e-300;
+      bool small = false;
+      long cells = 1;
+      for (int d = 0; d < 3; ++d) {
+        const double k = floor(g.prd[d] / w);
+        const double kmost = 1048576.0 < k ? 1048576.0 : k;    // std::min(k, 1048576.0)
+        g.n[d] = (int) (1.0 < kmost ? kmost : 1.0);            // std::max(1.0, kmost)
+        if (g.periodic[d] && g.n[d] < 3) small = true;
+        cells *= g.n[d];
+      }
+      const long most = 2L * n + 64;
+      while (cells > most) {
+        int d = 0;
+        for (int e = 1; e < 3; ++e)
+          if (g.n[e] > g.n[d]) d = e;
+        const int least = g.periodic[d] ? 3 : 1;
+        if (g.n[d] <= least) break;    // then every length holds at most 3 cells
+        cells /= g.n[d];
+        g.n[d] = max(least, g.n[d] / 2);
+        cells *= g.n[d];
+      }
+      for (int d = 0; d < 3; ++d) g.width[d] = g.prd[d] / g.n[d];
+      return small;
+    }
+
+    /// search_grid()'s most cells for n bodies.
+    long most_cells(int n)
+    {
+      return std::max(2L * n + 64, 27L);
+    }
+
+    // Launch: one thread per body (n >= 1).  The first thread of every block works the search
+    // grid out from s->maxreach (search_grid() on `box`; the same bits in each block), block
+    // 0's goes to s->grid with s->small_box; key[b] = the cell of b's start point, val[b] = b.
+    __global__ void cell_kernel(const Body *__restrict__ bodies, int n, Grid box, Scalars *s,
+                                int *key, int *val)
+    {
+      __shared__ Grid g;
+      if (threadIdx.x == 0) {
+        g = box;
+        const bool small = search_grid(__longlong_as_double((long long) s->maxreach), n, g);
+        if (blockIdx.x == 0) {
+          s->grid = g;
+          s->small_box = small ? 1 : 0;
+        }
+      }
+      __syncthreads();
       const int b = blockIdx.x * blockDim.x + threadIdx.x;
       if (b >= n) return;
       const double *x = bodies[b].X0;
       key[b] = (cell_coord(x[2], g, 2) * g.n[1] + cell_coord(x[1], g, 1)) * g.n[0] +
                cell_coord(x[0], g, 0);
       val[b] = b;
+    }
+
+    // Launch: grid-stride, any number of threads.  The ranges of the cells of s->grid (at most
+    // most_cells(n)) emptied: cstart[c] = cend[c] = 0.
+    __global__ void zero_cells_kernel(const Scalars *s, int *cstart, int *cend)
+    {
+      const long cells = (long) s->grid.n[0] * s->grid.n[1] * s->grid.n[2];
+      const long stride = (long) gridDim.x * blockDim.x;
+      for (long c = blockIdx.x * (long) blockDim.x + threadIdx.x; c < cells; c += stride) {
+        cstart[c] = 0;
+        cend[c] = 0;
+      }
     }
 
     /// What the pair search reads of a body, stored in cell order so that a cell's bodies lie
@@ -324,23 +415,35 @@ namespace Collide {
       }
     }
 
-    // Launch: one thread per sorted position k (n), body i = order[k].  Tests the pairs of
-    // for_each_near<true>() as the host search does: lower ID first, nearest image of the
-    // start points, |r| <= (r_lo + r_hi) + (bound_lo + bound_hi).  FILL false: count[k] = its
-    // pairs, s->overlap where a pair is closer than (1 - tol) contact.  FILL true: the pairs go
-    // to edges[offset[k] ...], in visiting order.  Reads about 14 x (cell occupancy) x 52
-    // bytes per thread, a cell's bodies side by side.
+    // Launch: one thread per sorted position k (n), body i = order[k], on the grid s->grid.
+    // Tests the pairs of for_each_near<true>() as the host search does: lower ID first, nearest
+    // image of the start points, |r| <= (r_lo + r_hi) + (bound_lo + bound_hi).  FILL false:
+    // count[k] = its pairs (and count[n] = 0, for the scan of n + 1), s->pair_overlap where a
+    // pair is closer than (1 - tol) contact.  FILL true: the pairs go to edges[offset[k] ...],
+    // in visiting order, those below `room` only; s->candidates = offset[n] (all of them),
+    // s->nedges = min(offset[n], room) (those written).  Reads about 14 x (cell occupancy) x
+    // 52 bytes per thread, a cell's bodies side by side.
     template <bool FILL>
     __global__ void pair_kernel(const NearPoint *__restrict__ pts, const NearTag *__restrict__ tags,
-                                int n, Grid g, const int *__restrict__ key,
-                                const int *__restrict__ order, const int *__restrict__ cstart,
-                                const int *__restrict__ cend, int *count,
-                                const int *__restrict__ offset, Edge *edges, double tol, Scalars *s)
+                                int n, const int *__restrict__ key, const int *__restrict__ order,
+                                const int *__restrict__ cstart, const int *__restrict__ cend,
+                                int *count, const int *__restrict__ offset, Edge *edges, int room,
+                                double tol, Scalars *s)
     {
       const int k = blockIdx.x * blockDim.x + threadIdx.x;
       if (k >= n) return;
+      const Grid g = s->grid;
+      if (k == 0) {
+        if (FILL) {
+          const int all = offset[n];
+          s->candidates = all;
+          s->nedges = min(all, room);
+        } else {
+          count[n] = 0;
+        }
+      }
       int found = 0, overlap = 0;
-      Edge *out = FILL ? edges + offset[k] : nullptr;
+      const int first = FILL ? offset[k] : 0;
       for_each_near<true>(pts, tags, k, key[k], g, order, cstart, cend,
                           [&](int, const NearBody &bi, const NearBody &bj, int ilo, int ihi,
                               const double *r, const double *sh) {
@@ -350,11 +453,13 @@ namespace Collide {
                             const double d2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
                             if (d2 > range * range) return;
                             if (FILL) {
-                              Edge e;
-                              e.i = ilo;
-                              e.j = ihi;
-                              for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
-                              out[found] = e;
+                              if (first + found < room) {
+                                Edge e;
+                                e.i = ilo;
+                                e.j = ihi;
+                                for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
+                                edges[first + found] = e;
+                              }
                             } else {
                               const double lim = (bi.p.radius + bj.p.radius) * (1.0 - tol);
                               if (d2 < lim * lim) overlap = 1;
@@ -363,40 +468,49 @@ namespace Collide {
                           });
       if (!FILL) {
         count[k] = found;
-        if (overlap) s->overlap = 1;
+        if (overlap) s->pair_overlap = 1;
       }
     }
 
-    // Launch: one thread per edge (ne).  deg[b] (zeroed, n + 1 entries) += the edges of b.
-    __global__ void degree_kernel(const Edge *__restrict__ edges, int ne, int *deg)
+    /* The kernels over the candidate edges take their number from the device (*nedges,
+       Scalars::nedges): they may be launched before the host has read it, with at least as
+       many threads (the room for edges). */
+
+    // Launch: one thread per edge (*nedges).  deg[b] (zeroed, n + 1 entries) += the edges of b.
+    __global__ void degree_kernel(const Edge *__restrict__ edges, const int *nedges, int *deg)
     {
       const int q = blockIdx.x * blockDim.x + threadIdx.x;
-      if (q >= ne) return;
+      if (q >= *nedges) return;
       atomicAdd(&deg[edges[q].i], 1);
       atomicAdd(&deg[edges[q].j], 1);
     }
 
-    // Launch: one thread per edge.  Edge q into the adjacency of both its bodies; fill starts
-    // as a copy of adj_start (the order within a body's list is that of the atomics).
-    __global__ void adjacency_kernel(const Edge *__restrict__ edges, int ne, int *fill, int *adj)
+    // Launch: one thread per edge (*nedges).  Edge q into the adjacency of both its bodies;
+    // fill starts as a copy of adj_start (the order within a body's list is that of the
+    // atomics).
+    __global__ void adjacency_kernel(const Edge *__restrict__ edges, const int *nedges, int *fill,
+                                     int *adj)
     {
       const int q = blockIdx.x * blockDim.x + threadIdx.x;
-      if (q >= ne) return;
+      if (q >= *nedges) return;
       adj[atomicAdd(&fill[edges[q].i], 1)] = q;
       adj[atomicAdd(&fill[edges[q].j], 1)] = q;
     }
 
     // Launch: blocks of TILE threads, one thread per body.  The window [t0, t0 + delta): start
     // point w0, excursion reset, bound max(kf |v|, floor) delta (window_driver.cpp's
-    // arithmetic).
+    // arithmetic), with floor = floor_fraction x the fastest speed (sqrt of *vmax2, the scan's
+    // bits), or floor_fraction itself where vmax2 is null.
     __global__ void __launch_bounds__(TILE)
         window_start_kernel(Body *bodies, int n, double t0, double delta, double kf,
-                            double floor_speed, double *wbound)
+                            double floor_fraction, const unsigned long long *vmax2, double *wbound)
     {
       __shared__ Body tile[TILE];
       load_tile(bodies, n, tile);
       const int b = blockIdx.x * TILE + threadIdx.x;
       if (b >= n) return;
+      const double floor_speed =
+          vmax2 ? floor_fraction * sqrt(__longlong_as_double((long long) *vmax2)) : floor_fraction;
       const Body &bd = tile[threadIdx.x];
       double w0[3];
       drift_position(bd, t0, w0);
@@ -413,13 +527,14 @@ namespace Collide {
       return sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) - s;
     }
 
-    // Launch: one thread per candidate edge.  joined[q]: the pair's gap at the window start is
-    // within the two bodies' window bounds.
+    // Launch: one thread per candidate edge (*nedges).  joined[q]: the pair's gap at the window
+    // start is within the two bodies' window bounds.
     __global__ void join_kernel(const Body *__restrict__ bodies, const Edge *__restrict__ edges,
-                                int ne, const double *__restrict__ wbound, unsigned char *joined)
+                                const int *nedges, const double *__restrict__ wbound,
+                                unsigned char *joined)
     {
       const int q = blockIdx.x * blockDim.x + threadIdx.x;
-      if (q >= ne) return;
+      if (q >= *nedges) return;
       const Edge &e = edges[q];
       const Body &bi = bodies[e.i], &bj = bodies[e.j];
       const double s2 = bi.radius + bj.radius;
@@ -444,20 +559,27 @@ namespace Collide {
       return cur;
     }
 
-    __global__ void uf_init_kernel(int *parent, int *size, int n)
+    // Launch: one thread per body (n >= 1).  Every body its own root; fill[b] (members_kernel's
+    // counts), s->largest and s->ngroups zeroed.
+    __global__ void uf_init_kernel(int *parent, int *size, int *fill, int n, Scalars *s)
     {
       const int b = blockIdx.x * blockDim.x + threadIdx.x;
       if (b >= n) return;
       parent[b] = b;
       size[b] = 0;
+      fill[b] = 0;
+      if (b == 0) {
+        s->largest = 0;
+        s->ngroups = 0;
+      }
     }
 
-    // Launch: one thread per candidate edge; joins the ends of the joined ones.
-    __global__ void uf_unite_kernel(const Edge *__restrict__ edges, int ne,
+    // Launch: one thread per candidate edge (*nedges); joins the ends of the joined ones.
+    __global__ void uf_unite_kernel(const Edge *__restrict__ edges, const int *nedges,
                                     const unsigned char *__restrict__ joined, int *parent)
     {
       const int q = blockIdx.x * blockDim.x + threadIdx.x;
-      if (q >= ne || !joined[q]) return;
+      if (q >= *nedges || !joined[q]) return;
       int a = uf_find(parent, edges[q].i), b = uf_find(parent, edges[q].j);
       while (a != b) {
         if (a > b) {
@@ -485,34 +607,45 @@ namespace Collide {
       atomicAdd(&size[r], 1);
     }
 
-    // Launch: one thread per body.  Roots: the largest group and the number of groups into s;
-    // isroot[b] and rsize[b] (the group's size at its root, else 0) for the numbering scans.
+    /// Sums of (is a root, group size at the root) pairs: the groups' numbers and offsets.
+    struct Int2Add {
+      __device__ int2 operator()(const int2 &a, const int2 &b) const
+      {
+        return make_int2(a.x + b.x, a.y + b.y);
+      }
+    };
+
+    // Launch: one thread per body (n >= 1), after uf_init_kernel.  Roots: the largest group and
+    // the number of groups into s; rk[b] = (1, the group's size) at a root, else (0, 0), for
+    // the numbering scan, and rk[n] = (0, 0) (the scan takes n + 1).
     __global__ void roots_kernel(const int *__restrict__ root, const int *__restrict__ size, int n,
-                                 int *isroot, int *rsize, Scalars *s)
+                                 int2 *rk, Scalars *s)
     {
       const int b = blockIdx.x * blockDim.x + threadIdx.x;
       if (b >= n) return;
+      if (b == 0) rk[n] = make_int2(0, 0);
       const bool is = root[b] == b;
-      isroot[b] = is ? 1 : 0;
-      rsize[b] = is ? size[b] : 0;
+      rk[b] = is ? make_int2(1, size[b]) : make_int2(0, 0);
       if (is) {
         atomicMax(&s->largest, size[b]);
         atomicAdd(&s->ngroups, 1);
       }
     }
 
-    // Launch: one thread per body.  Group g (numbered in root order: gid = exclusive scan of
-    // isroot) starts at goff[root] (exclusive scan of rsize); members placed by atomics.
-    __global__ void members_kernel(const int *__restrict__ root, const int *__restrict__ gid,
-                                   const int *__restrict__ goff, int n, int ngroups, int *gstart,
-                                   int *fill, int *gmembers)
+    // Launch: one thread per body (n >= 1).  Group g (numbered in root order: gk[b].x, the
+    // exclusive scan of roots_kernel's root flags) starts at gk[root].y (the exclusive scan of
+    // its sizes); members placed by atomics on fill (zeroed by uf_init_kernel).
+    // s->next_group zeroed for resolve_kernel.
+    __global__ void members_kernel(const int *__restrict__ root, const int2 *__restrict__ gk, int n,
+                                   int ngroups, int *gstart, int *fill, int *gmembers, Scalars *s)
     {
       const int b = blockIdx.x * blockDim.x + threadIdx.x;
       if (b >= n) return;
+      if (b == 0) s->next_group = 0;
       const int r = root[b];
-      if (r == b) gstart[gid[b]] = goff[b];
+      if (r == b) gstart[gk[b].x] = gk[b].y;
       if (b == 0) gstart[ngroups] = n;
-      gmembers[goff[r] + atomicAdd(&fill[r], 1)] = b;
+      gmembers[gk[r].y + atomicAdd(&fill[r], 1)] = b;
     }
 
     /// A group's tally as the window's sums take it.
@@ -538,7 +671,8 @@ namespace Collide {
     };
 
     // Launch: whole warps, any number.  Each warp takes the next of the s->nmulti groups of
-    // two or more bodies (order[0 .. nmulti), taken through s->next_group, zeroed) until none
+    // two or more bodies (order[0 .. nmulti), taken through s->next_group, zeroed by
+    // members_kernel) until none
     // is left: its events before t_end, at most budget (group_loop_warp.cuh), and its tally
     // (summed in event order from zero) into sums[k] for order[k].
     __global__ void resolve_kernel(GroupGraph graph, const int *__restrict__ gstart,
@@ -580,14 +714,16 @@ namespace Collide {
       }
     }
 
-    // Launch: one thread per body.  Excursion from the window start point at t1.
+    // Launch: one thread per body (n >= 1).  Excursion from the window start point at t1;
+    // s->missed zeroed for missed_kernel.
     __global__ void __launch_bounds__(TILE)
-        excursion_kernel(Body *bodies, int n, double t1, double *lexc)
+        excursion_kernel(Body *bodies, int n, double t1, double *lexc, Scalars *s)
     {
       __shared__ Body tile[TILE];
       load_tile(bodies, n, tile);
       const int b = blockIdx.x * TILE + threadIdx.x;
       if (b >= n) return;
+      if (b == 0) s->missed = 0;
       Body &bd = tile[threadIdx.x];
       const double exc2 = bd.exc2, wexc2 = bd.wexc2;
       double x[3];
@@ -598,16 +734,16 @@ namespace Collide {
       lexc[b] = sqrt(bd.wexc2);
     }
 
-    // Launch: one thread per candidate edge.  A pair not joined that could have touched (a
-    // body beyond its window bound, the two moved at least the gap together) is joined;
-    // s->missed counts them.
+    // Launch: one thread per candidate edge (s->nedges).  A pair not joined that could have
+    // touched (a body beyond its window bound, the two moved at least the gap together) is
+    // joined; s->missed counts them.
     __global__ void missed_kernel(const Body *__restrict__ bodies, const Edge *__restrict__ edges,
-                                  int ne, const double *__restrict__ wbound,
+                                  const double *__restrict__ wbound,
                                   const double *__restrict__ lexc, unsigned char *joined,
                                   Scalars *s)
     {
       const int q = blockIdx.x * blockDim.x + threadIdx.x;
-      if (q >= ne || joined[q]) return;
+      if (q >= s->nedges || joined[q]) return;
       const Edge &e = edges[q];
       if (!(lexc[e.i] > wbound[e.i]) && !(lexc[e.j] > wbound[e.j])) return;
       const Body &bi = bodies[e.i], &bj = bodies[e.j];
@@ -631,8 +767,8 @@ namespace Collide {
     };
 
     // Launch: blocks of TILE threads, one thread per body.  The end of the step: excursion
-    // noted at dt (as end_of_step() does) and kept in exc[b]; s->excursion counts bodies
-    // beyond their step bound, s->maxexc the largest excursion, s->vend2 the largest squared
+    // noted at dt (as end_of_step() does) and kept in exc[b]; s->end (zeroed): excursion counts
+    // bodies beyond their step bound, maxexc the largest excursion, vend2 the largest squared
     // speed (the host's apply_results() formula; one atomic per block each).
     __global__ void __launch_bounds__(TILE)
         end_kernel(Body *bodies, int n, double dt, const double *__restrict__ bound, double *exc,
@@ -659,16 +795,16 @@ namespace Collide {
       }
       mine = Reduce(scratch).Reduce(mine, ExcursionOp());
       if (threadIdx.x != 0) return;
-      atomic_max_bits(&s->maxexc, mine.most);
-      atomic_max_bits(&s->vend2, mine.v2);
-      if (mine.beyond) atomicAdd(&s->excursion, mine.beyond);
+      atomic_max_bits(&s->end.maxexc, mine.most);
+      atomic_max_bits(&s->end.vend2, mine.v2);
+      if (mine.beyond) atomicAdd(&s->end.excursion, mine.beyond);
     }
 
     // Launch: one thread per sorted position k (n), body i = order[k].  The step's check (the
     // host's FixHardSphere::step_exact()): for a body beyond its step bound, a pair with a
     // neighbour that was not a candidate could have touched if the two moved at least its gap
-    // together; s->missed_step is set for such a pair, or where the body's partners could lie
-    // beyond the cells around it (exc_i + maxexc + 2 rmax not below the narrowest cell).
+    // together; s->end.missed_step is set for such a pair, or where the body's partners could
+    // lie beyond the cells around it (exc_i + maxexc + 2 rmax not below the narrowest cell).
     __global__ void step_check_kernel(const NearPoint *__restrict__ pts,
                                       const NearTag *__restrict__ tags,
                                       const double *__restrict__ bound,
@@ -683,7 +819,7 @@ namespace Collide {
       if (!(exc[i] > bound[i])) return;
       const double wmin = fmin(g.width[0], fmin(g.width[1], g.width[2]));
       if (!(exc[i] + maxexc + 2.0 * rmax < wmin)) {
-        s->missed_step = 1;
+        s->end.missed_step = 1;
         return;
       }
       for_each_near<false>(pts, tags, k, key[k], g, order, cstart, cend,
@@ -694,7 +830,7 @@ namespace Collide {
                              if (dist <= contact + (bi.t.bound + bj.t.bound))
                                return;    // a candidate
                              if (dist - contact > exc[i] + exc[j] + tol * contact) return;
-                             s->missed_step = 1;
+                             s->end.missed_step = 1;
                            });
     }
 
@@ -790,40 +926,44 @@ namespace Collide {
       if (b < n) tlast[bodies[b].owner] = fmax(bodies[b].tlast - dt, never);
     }
 
-    /// What goes back to the caller for an atom that had events (omega: rough spheres only).
+    /// What goes back to the caller for an atom that had events (56 bytes; rough spheres'
+    /// angular velocities go in an array of their own, 3 per result).
     struct AtomResult {
       int index;
-      double x[3], v[3], omega[3];
+      double x[3], v[3];
     };
 
-    // Launch: one thread per body (n).  flag[b] = 1 where body b had events, else 0.
+    // Launch: one thread per body (n >= 1).  flag[b] = 1 where body b had events, else 0, and
+    // flag[n] = 0 (for the scan of n + 1).
     __global__ void changed_kernel(const Body *__restrict__ bodies, int n, int *flag)
     {
       const int b = blockIdx.x * blockDim.x + threadIdx.x;
+      if (b == 0) flag[n] = 0;
       if (b < n) flag[b] = bodies[b].nevents > 0 ? 1 : 0;
     }
 
     // Launch: one thread per body.  The atoms that had events, in increasing body order (slot
-    // = the exclusive sum of changed_kernel's flags): end-of-step position, velocity and time
-    // of the last collision into out[slot].
+    // = the exclusive sum of changed_kernel's flags): end-of-step position and velocity into
+    // out[slot], and the angular velocity into spin[3 slot ...] (rough spheres; else null).
     __global__ void atom_results_kernel(const Body *__restrict__ bodies, int n, double dt,
-                                        const int *__restrict__ slot, AtomResult *out)
+                                        const int *__restrict__ slot, AtomResult *out, double *spin)
     {
       const int b = blockIdx.x * blockDim.x + threadIdx.x;
       if (b >= n || bodies[b].nevents == 0) return;
       AtomResult r;
       r.index = bodies[b].owner;
       drift_position(bodies[b], dt, r.x);
-      for (int d = 0; d < 3; ++d) {
-        r.v[d] = bodies[b].v[d];
-        r.omega[d] = bodies[b].omega[d];
-      }
+      for (int d = 0; d < 3; ++d) r.v[d] = bodies[b].v[d];
       out[slot[b]] = r;
+      if (spin)
+        for (int d = 0; d < 3; ++d) spin[3 * slot[b] + d] = bodies[b].omega[d];
     }
 
     // Launch: one thread per result (changed).  Result k into the device copies of the
-    // caller's x and v (and omega, rough spheres; else null).
-    __global__ void atom_write_kernel(const AtomResult *__restrict__ res, int changed, double *x,
+    // caller's x and v, and its angular velocity spin[3 k ...] into omega (rough spheres; else
+    // both null).
+    __global__ void atom_write_kernel(const AtomResult *__restrict__ res,
+                                      const double *__restrict__ spin, int changed, double *x,
                                       double *v, double *omega)
     {
       const int k = blockIdx.x * blockDim.x + threadIdx.x;
@@ -834,7 +974,7 @@ namespace Collide {
         v[3 * r.index + d] = r.v[d];
       }
       if (omega)
-        for (int d = 0; d < 3; ++d) omega[3 * r.index + d] = r.omega[d];
+        for (int d = 0; d < 3; ++d) omega[3 * r.index + d] = spin[3 * k + d];
     }
 
     using Clock = std::chrono::steady_clock;
@@ -868,14 +1008,16 @@ namespace Collide {
       {
         cudaSetDevice(device);
         for (DeviceBuffer *b :
-             {&d_bodies,    &d_snap,   &d_bound, &d_scalars, &d_key,    &d_val,     &d_key2,
-              &d_val2,      &d_cstart, &d_cend,  &d_count,   &d_offset, &d_edges,   &d_deg,
-              &d_adj_start, &d_fill,   &d_adj,   &d_joined,  &d_wbound, &d_parent,  &d_root,
-              &d_size,      &d_isroot, &d_rsize, &d_gid,     &d_goff,   &d_gstart,  &d_gmembers,
-              &d_best,      &d_sums,   &d_lexc,  &d_temp,    &d_near,   &d_neartag, &d_order})
+             {&d_bodies, &d_snap,   &d_bound,  &d_scalars, &d_key,      &d_val,  &d_key2,
+              &d_val2,   &d_cstart, &d_count,  &d_offset,  &d_edges,    &d_deg,  &d_adj_start,
+              &d_fill,   &d_adj,    &d_joined, &d_wbound,  &d_parent,   &d_root, &d_size,
+              &d_isroot, &d_gid,    &d_goff,   &d_gstart,  &d_gmembers, &d_best, &d_sums,
+              &d_lexc,   &d_temp,   &d_near,   &d_neartag, &d_order,    &d_rspin,
+              &d_wbound2, &d_joined2})
           b->release();
         if (host_scalars) cudaFreeHost(host_scalars);
-        for (PinnedBuffer *b : {&host_changed, &host_index, &host_results, &host_control})
+        for (PinnedBuffer *b :
+             {&host_changed, &host_index, &host_results, &host_rspin, &host_control})
           b->release();
         d_control.release();
         d_part.release();
@@ -907,8 +1049,8 @@ namespace Collide {
       Scalars *host_scalars = nullptr;
       cudaEvent_t ev_up0 = nullptr, ev_up1 = nullptr;    // run_atoms(): around the uploads
       // Pinned: what comes back, run()'s bodies that had events with their indices, or
-      // run_atoms()'s results.
-      PinnedBuffer host_changed, host_index, host_results, host_control;
+      // run_atoms()'s results (and their angular velocities, rough spheres).
+      PinnedBuffer host_changed, host_index, host_results, host_rspin, host_control;
       DeviceBuffer d_control, d_part;    // order serial: the loop's state, block minima
       DeviceBuffer d_boost;              // run_atoms(): step bounds raised by a failed check
       DeviceBuffer d_budget;             // run_atoms(): the step budget's maxima (bits)
@@ -972,13 +1114,31 @@ namespace Collide {
       WindowChooser chooser;
       int n = 0, ne = 0;
       double tol = 0.0;    // overlap tolerance of the step
-      Grid grid;           // the search's cells
+      Grid grid;           // the search's cells, as the device found them (Scalars::grid)
+      // The candidate search runs ahead of the host (search()): room for edge_room edges, sized
+      // from the last step's count; the kernels over the edges run on edge_threads threads,
+      // edge_room until the host has read the count, then the count (ne).
+      long edge_room = 0;
+      long edge_threads = 0;
       DeviceBuffer d_bodies, d_snap, d_bound, d_scalars, d_key, d_val, d_key2, d_val2, d_cstart,
-          d_cend, d_count, d_offset, d_edges, d_deg, d_adj_start, d_fill, d_adj, d_joined, d_wbound,
-          d_parent, d_root, d_size, d_isroot, d_rsize, d_gid, d_goff, d_gstart, d_gmembers, d_best,
-          d_sums, d_lexc, d_temp, d_near, d_neartag, d_order;
+          d_count, d_offset, d_edges, d_deg, d_adj_start, d_fill, d_adj, d_joined, d_wbound,
+          d_parent, d_root, d_size, d_isroot, d_gid, d_goff, d_gstart, d_gmembers, d_best, d_sums,
+          d_lexc, d_temp, d_near, d_neartag, d_order;
+      DeviceBuffer d_rspin;    // run_atoms(): the results' angular velocities (rough spheres)
+      // Window bounds and joined flags come in two sets, window k's in set k % 2, so that the
+      // next window's first try can be set up while this one's check may still repair it.
+      DeviceBuffer d_wbound2, d_joined2;
+      double *wbound(int set) const { return (set ? d_wbound2 : d_wbound).as<double>(); }
+      unsigned char *joined(int set) const
+      {
+        return (set ? d_joined2 : d_joined).as<unsigned char>();
+      }
 
       Scalars *scalars() const { return d_scalars.as<Scalars>(); }
+      int *nedges() const { return &scalars()->nedges; }
+      // The cells' ranges: cstart and cend, most_cells(n) each, in one buffer.
+      int *cstart() const { return d_cstart.as<int>(); }
+      int *cend() const { return d_cstart.as<int>() + most_cells(n); }
 
       /* Debugging and tuning aid (HSGPU_RESIDENT_PROFILE=1): the stream is waited for at the
          end of every phase of a step and the seconds are summed per phase; the sums per step
@@ -1055,11 +1215,6 @@ namespace Collide {
         cuda_check(cudaMemcpyAsync(dst.ptr, src.ptr, bytes, cudaMemcpyDeviceToHost, stream), what);
       }
 
-      template <class T> void zero(T *field)
-      {
-        cuda_check(cudaMemsetAsync(field, 0, sizeof(T), stream), "cudaMemset");
-      }
-
       void launched(const char *what) { cuda_check(cudaGetLastError(), what); }
 
       /// Exclusive sum of n + 1 ints (in[n] must be 0) into out, with CUB.
@@ -1082,59 +1237,55 @@ namespace Collide {
                         Tally &total, ResidentReport &report, Clock::time_point t_start);
       bool resolve_serial(const Params &dp, Tally &total, WindowStats &stats);
       void count_changed();
-      ResidentOutcome search(const ResidentBox &box, double maxreach, long &candidates);
-      void verify_groups(int ngroups, const char *where);
-      int components();
+      void search_cells(const ResidentBox &box);
+      void search_pairs();
+      bool small_box_last = false;    // the last step declined for a box of too few cells
+      void fill_edges();
+      void verify_groups(int ngroups, const char *where, int set);
+      void try_window(double t0, double t1, double kf, double floor_fraction, int set);
+      void components(int set);
+      void step_end(double dt);
       void groups(int ngroups);
       void resolve_groups(const GroupGraph &graph, int ngroups, double t_end, const Params &dp,
                           long budget);
       int resident_blocks = 0;    // resolve_kernel's blocks that fit on the device at once
     };
 
-    /* The candidate pairs and their adjacency.  Declines where a periodic length holds fewer
-       than three cells or a pair overlaps. */
-    ResidentOutcome CudaResidentStep::search(const ResidentBox &box, double maxreach,
-                                             long &candidates)
+    /* The candidate search, enqueued only: nothing here waits for the device.  search_cells()
+       finds the grid from the scan's largest reach on the device (cell_kernel) and every
+       start point's cell; search_pairs() the candidate pairs and their adjacency.  The host
+       reads the grid, the number of candidates and the declines (a periodic length of fewer
+       than three cells, a pair that overlaps) with the next download.  The pairs are written
+       while they fit in edge_room (fill_edges()); where they did not, the caller makes room
+       and fills them in again. */
+    void CudaResidentStep::search_cells(const ResidentBox &box)
     {
       Grid g;
-      // Cells at least as wide as the longest candidate range, with a margin for rounding;
-      // no more of them than about twice the bodies (a dilute system gets wider cells).
-      const double w = 2.0 * maxreach * (1.0 + 1e-9) + 1e-300;
-      long cells = 1;
       for (int d = 0; d < 3; ++d) {
         g.lo[d] = box.lo[d];
         g.prd[d] = box.prd[d];
         g.periodic[d] = box.periodic[d];
-        const double k = std::floor(box.prd[d] / w);
-        g.n[d] = (int) std::max(1.0, std::min(k, 1048576.0));
-        if (g.periodic[d] && g.n[d] < 3) return ResidentOutcome::small_box;
-        cells *= g.n[d];
+        g.width[d] = 0.0;
+        g.n[d] = 0;
       }
-      const long most = 2L * n + 64;
-      while (cells > most) {
-        int d = 0;
-        for (int e = 1; e < 3; ++e)
-          if (g.n[e] > g.n[d]) d = e;
-        const int least = g.periodic[d] ? 3 : 1;
-        if (g.n[d] <= least) break;
-        cells /= g.n[d];
-        g.n[d] = std::max(least, g.n[d] / 2);
-        cells *= g.n[d];
-      }
-      for (int d = 0; d < 3; ++d) g.width[d] = box.prd[d] / g.n[d];
-      grid = g;
-
+      const long cells = most_cells(n);    // the device's grid has no more
       d_key.reserve(n * sizeof(int), "cudaMalloc(cells)");
       d_val.reserve(n * sizeof(int), "cudaMalloc(cells)");
       d_key2.reserve(n * sizeof(int), "cudaMalloc(cells)");
       d_val2.reserve(n * sizeof(int), "cudaMalloc(cells)");
-      d_cstart.reserve(cells * sizeof(int), "cudaMalloc(cell ranges)");
-      d_cend.reserve(cells * sizeof(int), "cudaMalloc(cell ranges)");
+      d_cstart.reserve(2 * cells * sizeof(int), "cudaMalloc(cell ranges)");
       d_count.reserve((n + 1) * sizeof(int), "cudaMalloc(pair counts)");
       d_offset.reserve((n + 1) * sizeof(int), "cudaMalloc(pair counts)");
-      cell_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_bodies.as<Body>(), n, g, d_key.as<int>(),
-                                                    d_val.as<int>());
+      cell_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_bodies.as<Body>(), n, g, scalars(),
+                                                    d_key.as<int>(), d_val.as<int>());
       launched("cell_kernel");
+    }
+
+    void CudaResidentStep::search_pairs()
+    {
+      const long cells = most_cells(n);
+      // Keys below `cells`: the sort by all their bits puts the bodies in the order that a
+      // sort by the bits of the grid's own count does (a stable sort, the upper bits zero).
       int end_bit = 1;
       while (end_bit < 31 && (1L << end_bit) < cells) ++end_bit;
       size_t bytes = 0;
@@ -1147,91 +1298,115 @@ namespace Collide {
                                                  d_key2.as<int>(), d_val.as<int>(),
                                                  d_val2.as<int>(), n, 0, end_bit, stream),
                  "cub::DeviceRadixSort");
-      cuda_check(cudaMemsetAsync(d_cstart.ptr, 0, cells * sizeof(int), stream), "cudaMemset");
-      cuda_check(cudaMemsetAsync(d_cend.ptr, 0, cells * sizeof(int), stream), "cudaMemset");
+      // Only the grid's own cells emptied (a memset of the most there can be would write up to
+      // 16 bytes per body).
+      zero_cells_kernel<<<std::min(nblocks(cells), 2048), BLOCK, 0, stream>>>(scalars(), cstart(),
+                                                                             cend());
+      launched("zero_cells_kernel");
       d_near.reserve(n * sizeof(NearPoint), "cudaMalloc(search points)");
       d_neartag.reserve(n * sizeof(NearTag), "cudaMalloc(search points)");
       cell_range_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
           d_key2.as<int>(), d_val2.as<int>(), d_bodies.as<Body>(), d_bound.as<double>(), n,
-          d_cstart.as<int>(), d_cend.as<int>(), d_near.as<NearPoint>(), d_neartag.as<NearTag>());
+          cstart(), cend(), d_near.as<NearPoint>(), d_neartag.as<NearTag>());
       launched("cell_range_kernel");
-      cuda_check(cudaMemsetAsync(d_count.as<int>() + n, 0, sizeof(int), stream), "cudaMemset");
       // The count pass also finds overlaps.
       pair_kernel<false><<<nblocks(n), BLOCK, 0, stream>>>(
-          d_near.as<NearPoint>(), d_neartag.as<NearTag>(), n, g, d_key2.as<int>(), d_val2.as<int>(),
-          d_cstart.as<int>(), d_cend.as<int>(), d_count.as<int>(), nullptr, nullptr, tol,
-          scalars());
+          d_near.as<NearPoint>(), d_neartag.as<NearTag>(), n, d_key2.as<int>(), d_val2.as<int>(),
+          cstart(), cend(), d_count.as<int>(), nullptr, nullptr, 0, tol, scalars());
       launched("pair_kernel (count)");
       exclusive_sum(d_count.as<int>(), d_offset.as<int>(), n + 1);
-      cuda_check(cudaMemcpyAsync(&scalars()->candidates, d_offset.as<int>() + n, sizeof(int),
-                                 cudaMemcpyDeviceToDevice, stream),
-                 "cudaMemcpy(candidates)");
-      const Scalars &sc = download_scalars();
-      if (sc.overlap) return ResidentOutcome::overlap;
-      ne = sc.candidates;
-      candidates = ne;
-      d_edges.reserve((size_t) ne * sizeof(Edge) + 1, "cudaMalloc(candidate pairs)");
+      fill_edges();
+    }
+
+    /* The candidate pairs that fit in edge_room into d_edges (their offsets from
+       search_pairs()) and the adjacency (CSR) of those written; enqueued only. */
+    void CudaResidentStep::fill_edges()
+    {
+      const int room = (int) edge_room;
+      d_edges.reserve((size_t) room * sizeof(Edge) + 1, "cudaMalloc(candidate pairs)");
       pair_kernel<true><<<nblocks(n), BLOCK, 0, stream>>>(
-          d_near.as<NearPoint>(), d_neartag.as<NearTag>(), n, g, d_key2.as<int>(), d_val2.as<int>(),
-          d_cstart.as<int>(), d_cend.as<int>(), nullptr, d_offset.as<int>(), d_edges.as<Edge>(),
-          tol, scalars());
+          d_near.as<NearPoint>(), d_neartag.as<NearTag>(), n, d_key2.as<int>(), d_val2.as<int>(),
+          cstart(), cend(), nullptr, d_offset.as<int>(), d_edges.as<Edge>(), room, tol, scalars());
       launched("pair_kernel (fill)");
 
       // Adjacency (CSR) of the candidates.
       d_deg.reserve((n + 1) * sizeof(int), "cudaMalloc(adjacency)");
       d_adj_start.reserve((n + 1) * sizeof(int), "cudaMalloc(adjacency)");
       d_fill.reserve((n + 1) * sizeof(int), "cudaMalloc(adjacency)");
-      d_adj.reserve((size_t) 2 * ne * sizeof(int) + 1, "cudaMalloc(adjacency)");
+      d_adj.reserve((size_t) 2 * room * sizeof(int) + 1, "cudaMalloc(adjacency)");
       cuda_check(cudaMemsetAsync(d_deg.ptr, 0, (n + 1) * sizeof(int), stream), "cudaMemset");
-      if (ne > 0) {
-        degree_kernel<<<nblocks(ne), BLOCK, 0, stream>>>(d_edges.as<Edge>(), ne, d_deg.as<int>());
+      if (room > 0) {
+        degree_kernel<<<nblocks(room), BLOCK, 0, stream>>>(d_edges.as<Edge>(), nedges(),
+                                                           d_deg.as<int>());
         launched("degree_kernel");
       }
       exclusive_sum(d_deg.as<int>(), d_adj_start.as<int>(), n + 1);
       cuda_check(cudaMemcpyAsync(d_fill.ptr, d_adj_start.ptr, (n + 1) * sizeof(int),
                                  cudaMemcpyDeviceToDevice, stream),
                  "cudaMemcpy(adjacency)");
-      if (ne > 0) {
-        adjacency_kernel<<<nblocks(ne), BLOCK, 0, stream>>>(d_edges.as<Edge>(), ne,
-                                                            d_fill.as<int>(), d_adj.as<int>());
+      if (room > 0) {
+        adjacency_kernel<<<nblocks(room), BLOCK, 0, stream>>>(d_edges.as<Edge>(), nedges(),
+                                                              d_fill.as<int>(), d_adj.as<int>());
         launched("adjacency_kernel");
       }
-      d_joined.reserve((size_t) ne + 1, "cudaMalloc(joined flags)");
-      return ResidentOutcome::done;
+      d_joined.reserve((size_t) room + 1, "cudaMalloc(joined flags)");
+      d_joined2.reserve((size_t) room + 1, "cudaMalloc(joined flags)");
     }
 
-    /* Components of the joined edges: parent[] holds every body's root (its component's
-       smallest index), size[] the sizes at the roots.  Returns the largest component and
-       leaves the number of components in the scalars. */
-    int CudaResidentStep::components()
+    /* The window [t0, t1) set up, enqueued only: start points, bounds (floor_fraction x the
+       scan's fastest speed) and joined edges (into the buffers of `set`), components(set). */
+    void CudaResidentStep::try_window(double t0, double t1, double kf, double floor_fraction,
+                                      int set)
     {
-      zero(&scalars()->largest);
-      zero(&scalars()->ngroups);
-      uf_init_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_parent.as<int>(), d_size.as<int>(), n);
+      window_start_kernel<<<nblocks(n, TILE), TILE, 0, stream>>>(
+          d_bodies.as<Body>(), n, t0, t1 - t0, kf, floor_fraction, &scalars()->vmax2, wbound(set));
+      launched("window_start_kernel");
+      if (edge_threads > 0) {
+        join_kernel<<<nblocks(edge_threads), BLOCK, 0, stream>>>(
+            d_bodies.as<Body>(), d_edges.as<Edge>(), nedges(), wbound(set), joined(set));
+        launched("join_kernel");
+      }
+      components(set);
+    }
+
+    /* Components of the joined edges, enqueued only: parent[] holds every body's root (its
+       component's smallest index), size[] the sizes at the roots; the largest component and
+       the number of components go to the scalars (Scalars::largest, ngroups); joined flags
+       of `set`. */
+    void CudaResidentStep::components(int set)
+    {
+      uf_init_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_parent.as<int>(), d_size.as<int>(),
+                                                       d_fill.as<int>(), n, scalars());
       launched("uf_init_kernel");
-      if (ne > 0) {
-        uf_unite_kernel<<<nblocks(ne), BLOCK, 0, stream>>>(
-            d_edges.as<Edge>(), ne, d_joined.as<unsigned char>(), d_parent.as<int>());
+      if (edge_threads > 0) {
+        uf_unite_kernel<<<nblocks(edge_threads), BLOCK, 0, stream>>>(
+            d_edges.as<Edge>(), nedges(), joined(set), d_parent.as<int>());
         launched("uf_unite_kernel");
       }
       uf_roots_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_parent.as<int>(), d_root.as<int>(),
                                                         d_size.as<int>(), n);
       launched("uf_roots_kernel");
-      roots_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
-          d_root.as<int>(), d_size.as<int>(), n, d_isroot.as<int>(), d_rsize.as<int>(), scalars());
+      roots_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_root.as<int>(), d_size.as<int>(), n,
+                                                     d_isroot.as<int2>(), scalars());
       launched("roots_kernel");
-      return download_scalars().largest;
     }
 
     /* The groups of the last components(): numbered in root order, members placed. */
     void CudaResidentStep::groups(int ngroups)
     {
-      exclusive_sum(d_isroot.as<int>(), d_gid.as<int>(), n + 1);
-      exclusive_sum(d_rsize.as<int>(), d_goff.as<int>(), n + 1);
-      cuda_check(cudaMemsetAsync(d_fill.ptr, 0, (n + 1) * sizeof(int), stream), "cudaMemset");
+      // Group numbers and offsets in one scan of (root flag, size) pairs.
+      size_t bytes = 0;
+      const int2 none = make_int2(0, 0);
+      cuda_check(cub::DeviceScan::ExclusiveScan(nullptr, bytes, d_isroot.as<int2>(),
+                                                d_goff.as<int2>(), Int2Add(), none, n + 1, stream),
+                 "cub::DeviceScan");
+      d_temp.reserve(bytes + 16, "cudaMalloc(scan scratch)");
+      cuda_check(cub::DeviceScan::ExclusiveScan(d_temp.ptr, bytes, d_isroot.as<int2>(),
+                                                d_goff.as<int2>(), Int2Add(), none, n + 1, stream),
+                 "cub::DeviceScan");
       members_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
-          d_root.as<int>(), d_gid.as<int>(), d_goff.as<int>(), n, ngroups, d_gstart.as<int>(),
-          d_fill.as<int>(), d_gmembers.as<int>());
+          d_root.as<int>(), d_goff.as<int2>(), n, ngroups, d_gstart.as<int>(), d_fill.as<int>(),
+          d_gmembers.as<int>(), scalars());
       launched("members_kernel");
     }
 
@@ -1255,7 +1430,6 @@ namespace Collide {
       cuda_check(cub::DevicePartition::If(d_temp.ptr, bytes, ids, d_order.as<int>(),
                                           &scalars()->nmulti, ngroups, multi, stream),
                  "cub::DevicePartition");
-      zero(&scalars()->next_group);
       if (resident_blocks == 0) {
         int per_sm = 0, sms = 0;
         cuda_check(
@@ -1278,7 +1452,7 @@ namespace Collide {
 
     /* Debugging aid (HSGPU_RESIDENT_VERIFY=1): the groups on the host, checked against the
        joined edges. */
-    void CudaResidentStep::verify_groups(int ngroups, const char *where)
+    void CudaResidentStep::verify_groups(int ngroups, const char *where, int set)
     {
       std::vector<int> parent(n), gstart(ngroups + 1), gmembers(n);
       std::vector<unsigned char> joined(ne);
@@ -1287,7 +1461,7 @@ namespace Collide {
       cudaMemcpy(parent.data(), d_root.ptr, n * sizeof(int), cudaMemcpyDeviceToHost);
       cudaMemcpy(gstart.data(), d_gstart.ptr, (ngroups + 1) * sizeof(int), cudaMemcpyDeviceToHost);
       cudaMemcpy(gmembers.data(), d_gmembers.ptr, n * sizeof(int), cudaMemcpyDeviceToHost);
-      cudaMemcpy(joined.data(), d_joined.ptr, ne, cudaMemcpyDeviceToHost);
+      cudaMemcpy(joined.data(), this->joined(set), ne, cudaMemcpyDeviceToHost);
       cudaMemcpy(edges.data(), d_edges.ptr, ne * sizeof(Edge), cudaMemcpyDeviceToHost);
       std::vector<int> group_of(n, -1);
       int bad = 0;
@@ -1318,11 +1492,13 @@ namespace Collide {
       d_sums.reserve(n * sizeof(WinSum), "cudaMalloc(group tallies)");
       const size_t ntables = p.friction ? 3 * ntypes2 : ntypes2;    // + mu, beta0 per pair
       d_scalars.reserve(sizeof(Scalars) + ntables * sizeof(double), "cudaMalloc(scalars)");
-      for (DeviceBuffer *b : {&d_bound, &d_wbound, &d_lexc})
+      for (DeviceBuffer *b : {&d_bound, &d_wbound, &d_wbound2, &d_lexc})
         b->reserve(n * sizeof(double), "cudaMalloc(bounds)");
-      for (DeviceBuffer *b : {&d_parent, &d_root, &d_size, &d_isroot, &d_rsize, &d_gid, &d_goff,
-                              &d_gstart, &d_gmembers})
+      for (DeviceBuffer *b : {&d_parent, &d_root, &d_size, &d_gid, &d_gstart, &d_gmembers})
         b->reserve((n + 1) * sizeof(int), "cudaMalloc(groups)");
+      // (root flag, size) pairs and their scan (roots_kernel, groups()).
+      for (DeviceBuffer *b : {&d_isroot, &d_goff})
+        b->reserve((n + 1) * sizeof(int2), "cudaMalloc(groups)");
       // The restitution table lives after the scalars.
       d_epair = reinterpret_cast<double *>(d_scalars.as<char>() + sizeof(Scalars));
       cuda_check(cudaMemcpyAsync(d_epair, p.epair, ntypes2 * sizeof(double), cudaMemcpyHostToDevice,
@@ -1344,33 +1520,10 @@ namespace Collide {
                                         const WindowSettings &s, Tally &total,
                                         ResidentReport &report, Clock::time_point t_start)
     {
-      // n + 1 entries for the scans: the last ones stay 0.
-      for (DeviceBuffer *b : {&d_isroot, &d_rsize})
-        cuda_check(cudaMemsetAsync(b->as<int>() + n, 0, sizeof(int), stream), "cudaMemset");
       cuda_check(cudaMemsetAsync(d_scalars.ptr, 0, sizeof(Scalars), stream), "cudaMemset");
       Params dp = p;
       dp.epair = d_epair;
       dp.fpair = d_fpair;
-
-      scan_bodies_kernel<<<nblocks(n, TILE), TILE, 0, stream>>>(
-          d_bodies.as<Body>(), d_bound.as<double>(), n, p.walls, tol, scalars());
-      launched("scan_bodies_kernel");
-      const Scalars sc = download_scalars();
-      mark(Profile::scan);
-      double maxreach, vmax2;
-      std::memcpy(&maxreach, &sc.maxreach, sizeof(double));
-      std::memcpy(&vmax2, &sc.vmax2, sizeof(double));
-      if (sc.overlap) {
-        report.outcome = ResidentOutcome::overlap;
-        return false;
-      }
-      report.outcome = search(box, maxreach, report.candidates);
-      if (report.outcome != ResidentOutcome::done) return false;
-      mark(Profile::search);
-      report.t_search = seconds_since(t_start);
-      windows_start = Clock::now();
-      const auto t_windows = windows_start;
-
       step_missed = false;
       const WindowChooser chooser_at_start = chooser;
       const double dt = p.dt;
@@ -1381,10 +1534,10 @@ namespace Collide {
       // The device's default floor is half the fastest speed (the host driver's a quarter): a
       // repair here resolves the whole window again, and with the wider bounds fewer are
       // needed (measured on an H100: 0.5 against 0.25 is 15-20% faster at N = 65536 and 1e6;
-      // 0.4, 0.6 and 0.75 in between).  The windows never change a result bit.
+      // 0.4, 0.6 and 0.75 in between).  The windows never change a result bit.  The fastest
+      // speed is the scan's, on the device (window_start_kernel).
       const double bound_factor = kf_env > 0.0 ? kf_env : s.bound_factor;
-      const double speed_floor =
-          (floor_env > 0.0 ? floor_env : floor_fraction_or(s, 0.5)) * std::sqrt(vmax2);
+      const double floor_fraction = floor_env > 0.0 ? floor_env : floor_fraction_or(s, 0.5);
       // Tuning aid: HSGPU_RESIDENT_TARGET=n sets the largest group the windows aim at.
       static const long target_env = (long) env_number("HSGPU_RESIDENT_TARGET", 0.0);
       // The device's own default (the windows never change a result bit): largest groups of
@@ -1394,15 +1547,72 @@ namespace Collide {
       const long target = target_env > 0       ? target_env
                           : s.target_group > 0 ? s.target_group
                                                : std::max(256L, (long) n / 1024);
-      const GroupGraph graph{d_bodies.as<Body>(), d_edges.as<Edge>(), d_adj_start.as<int>(),
-                             d_adj.as<int>(),     d_best.as<Event>(), d_joined.as<unsigned char>()};
-      WindowStats &stats = report.stats;
-      double t0 = 0.0;
       // Tuning aid: HSGPU_RESIDENT_GROW=g, how much longer than the last window the next one
       // starts.
       static const double grow_env = env_number("HSGPU_RESIDENT_GROW", 2.0);
       chooser.set_growth(grow_env);
       chooser.start_step(dt);
+
+      /* One wait for the scan, the search and the first window the chooser will try: the
+         grid is worked out on the device, the edges written into room for a quarter more
+         than the last step had, and the window set up ahead (the chooser's first_end()).
+         The declines are then read in the order of their checks. */
+      scan_bodies_kernel<<<nblocks(n, TILE), TILE, 0, stream>>>(
+          d_bodies.as<Body>(), d_bound.as<double>(), n, p.walls, tol, scalars());
+      launched("scan_bodies_kernel");
+      mark(Profile::scan);
+      auto decline_early = [&](ResidentOutcome o) {
+        chooser = chooser_at_start;
+        report.outcome = o;
+        small_box_last = o == ResidentOutcome::small_box;
+        return false;
+      };
+      search_cells(box);
+      if (small_box_last) {
+        // The last step's box held too few cells (a thin periodic slab: it may every step):
+        // this one waits for its grid before it searches.
+        const Scalars &g = download_scalars();
+        if (g.overlap) return decline_early(ResidentOutcome::overlap);    // a wall
+        if (g.small_box) return decline_early(ResidentOutcome::small_box);
+      }
+      if (edge_room <= 0) edge_room = 2L * n + 1024;    // the first step: a guess
+      search_pairs();
+      edge_threads = edge_room;
+      double t_first = serial ? dt : chooser.first_end(0.0, 0, dt, s);
+      if (!serial) try_window(0.0, t_first, bound_factor, floor_fraction, 0);
+      Scalars sc = download_scalars();
+      if (sc.overlap) return decline_early(ResidentOutcome::overlap);    // a wall
+      if (sc.small_box) return decline_early(ResidentOutcome::small_box);
+      if (sc.pair_overlap) return decline_early(ResidentOutcome::overlap);
+      if (sc.candidates > edge_room) {
+        // More than the room: the edges again with enough (the same ones), and the window.
+        edge_room = (long) sc.candidates + sc.candidates / 4 + 1024;
+        fill_edges();
+        edge_threads = edge_room;
+        if (!serial) try_window(0.0, t_first, bound_factor, floor_fraction, 0);
+        sc = download_scalars();
+      }
+      small_box_last = false;
+      ne = sc.candidates;
+      edge_threads = ne;
+      report.candidates = ne;
+      grid = sc.grid;
+      // The next step's room: a quarter more than this one's pairs.
+      edge_room = (long) ne + ne / 4 + 1024;
+      // A window set up ahead, the chooser's first try for window first_k, try_window(t0,
+      // t_first): its largest group and groups.  The first window's was set up above; each
+      // later one's is set up with the check of the window before it.
+      bool first_ready = !serial;
+      int first_k = 0;
+      long first_largest = sc.largest;
+      int first_ngroups = sc.ngroups;
+      mark(Profile::search);
+      report.t_search = seconds_since(t_start);
+      windows_start = Clock::now();
+      const auto t_windows = windows_start;
+
+      WindowStats &stats = report.stats;
+      double t0 = 0.0;
       int k = 0;
       auto decline = [&](ResidentOutcome o) {
         chooser = chooser_at_start;
@@ -1416,37 +1626,47 @@ namespace Collide {
         }
         mark(Profile::resolve);
       }
+      // The step's end (end_kernel, count_changed()) is enqueued with the last window's check,
+      // the next window's first try with the check of any other, and read in the same
+      // download; a repair after it takes the bodies back to the snapshot (and recomputes the
+      // components from this window's joined flags, the other set's are the next window's),
+      // and the end or the next window's try is enqueued again with the next check.
+      bool ended = false;
       while (!serial && t0 < dt) {
         long largest;
         int ngroups = 0;
-        auto try_window = [&](double t1) -> long {
-          window_start_kernel<<<nblocks(n, TILE), TILE, 0, stream>>>(
-              d_bodies.as<Body>(), n, t0, t1 - t0, bound_factor, speed_floor,
-              d_wbound.as<double>());
-          launched("window_start_kernel");
-          if (ne > 0) {
-            join_kernel<<<nblocks(ne), BLOCK, 0, stream>>>(d_bodies.as<Body>(), d_edges.as<Edge>(),
-                                                           ne, d_wbound.as<double>(),
-                                                           d_joined.as<unsigned char>());
-            launched("join_kernel");
-          }
-          const long l = components();
-          ngroups = host_scalars->ngroups;
+        const int set = k % 2;    // this window's bounds and joined flags
+        auto try_end = [&](double t1) -> long {
           ++prof.tries;
-          return l;
+          if (first_ready && first_k == k && t1 == t_first) {    // set up ahead
+            first_ready = false;
+            ngroups = first_ngroups;
+            return first_largest;
+          }
+          first_ready = false;    // the device now holds another window
+          try_window(t0, t1, bound_factor, floor_fraction, set);
+          const Scalars &c = download_scalars();
+          ngroups = c.ngroups;
+          return c.largest;
         };
-        const double t1 = chooser.next(t0, k, dt, s, target, try_window, largest);
+        const double t1 = chooser.next(t0, k, dt, s, target, try_end, largest);
+        first_ready = false;
+        const GroupGraph graph{d_bodies.as<Body>(), d_edges.as<Edge>(), d_adj_start.as<int>(),
+                               d_adj.as<int>(),     d_best.as<Event>(), joined(set)};
         mark(Profile::choose);
         cuda_check(cudaMemcpyAsync(d_snap.ptr, d_bodies.ptr, n * sizeof(Body),
                                    cudaMemcpyDeviceToDevice, stream),
                    "cudaMemcpy(snapshot)");
         mark(Profile::snapshot);
         const long budget = p.maxevents - total.events;
+        const bool last = !(t1 < dt);    // the loop's end
+        // The next window's first try (the chooser's state is the next window's now).
+        const double t_next = last ? dt : chooser.first_end(t1, k + 1, dt, s);
         WinSum win;
         static const bool verify = std::getenv("HSGPU_RESIDENT_VERIFY") != nullptr;
         while (true) {
           groups(ngroups);
-          if (verify) verify_groups(ngroups, "window");
+          if (verify) verify_groups(ngroups, "window", set);
           mark(Profile::groups);
           resolve_groups(graph, ngroups, t1, dp, budget);
           ++prof.passes;
@@ -1462,15 +1682,20 @@ namespace Collide {
                                                stream),
                      "cub::DeviceReduce");
           excursion_kernel<<<nblocks(n, TILE), TILE, 0, stream>>>(d_bodies.as<Body>(), n, t1,
-                                                                  d_lexc.as<double>());
+                                                                  d_lexc.as<double>(), scalars());
           launched("excursion_kernel");
-          zero(&scalars()->missed);
           if (ne > 0) {
             missed_kernel<<<nblocks(ne), BLOCK, 0, stream>>>(
-                d_bodies.as<Body>(), d_edges.as<Edge>(), ne, d_wbound.as<double>(),
-                d_lexc.as<double>(), d_joined.as<unsigned char>(), scalars());
+                d_bodies.as<Body>(), d_edges.as<Edge>(), wbound(set), d_lexc.as<double>(),
+                joined(set), scalars());
             launched("missed_kernel");
           }
+          // Ahead of the check, undone by a repair: the step's end, or the next window's first
+          // try (into the other set of bounds and flags).
+          if (last)
+            step_end(dt);
+          else
+            try_window(t1, t_next, bound_factor, floor_fraction, 1 - set);
           const Scalars &r = download_scalars();
           mark(Profile::check);
           win = r.win;
@@ -1478,14 +1703,26 @@ namespace Collide {
             decline(ResidentOutcome::capped);
             return false;
           }
-          if (r.missed == 0) break;
+          if (r.missed == 0) {
+            ended = last;
+            if (!last) {    // the next window's first try came back with the check
+              first_ready = true;
+              first_k = k + 1;
+              t_first = t_next;
+              first_largest = r.largest;
+              first_ngroups = r.ngroups;
+            }
+            break;
+          }
           // Joined pairs that could have touched: the window again from its start.
           stats.repairs += r.missed;
           cuda_check(cudaMemcpyAsync(d_bodies.ptr, d_snap.ptr, n * sizeof(Body),
                                      cudaMemcpyDeviceToDevice, stream),
                      "cudaMemcpy(snapshot back)");
-          largest = std::max(largest, (long) components());
-          ngroups = host_scalars->ngroups;
+          components(set);
+          const Scalars &c = download_scalars();
+          largest = std::max(largest, (long) c.largest);
+          ngroups = c.ngroups;
           mark(Profile::check);
         }
         Tally wt;
@@ -1504,15 +1741,12 @@ namespace Collide {
       if (!serial) stats.windows = k;
       mark(Profile::end);
 
-      zero(&scalars()->excursion);
-      zero(&scalars()->maxexc);
-      zero(&scalars()->vend2);
-      zero(&scalars()->missed_step);
-      end_kernel<<<nblocks(n, TILE), TILE, 0, stream>>>(
-          d_bodies.as<Body>(), n, dt, d_bound.as<double>(), d_lexc.as<double>(), scalars());
-      launched("end_kernel");
-      count_changed();    // read back with the step's check, in one round trip
-      const Scalars &es = download_scalars();
+      if (!ended) {    // order serial (or a loop that ended without its last window's check)
+        step_end(dt);
+        download_scalars();
+      }
+      // count_changed()'s number (Scalars::changed) came back with the step's check.
+      const EndSums es = host_scalars->end;
       std::memcpy(&report.vend2, &es.vend2, sizeof(double));
       if (es.excursion > 0) {
         double maxexc, rmax;
@@ -1525,10 +1759,10 @@ namespace Collide {
         }
         step_check_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
             d_near.as<NearPoint>(), d_neartag.as<NearTag>(), d_bound.as<double>(),
-            d_lexc.as<double>(), n, grid, d_key2.as<int>(), d_val2.as<int>(), d_cstart.as<int>(),
-            d_cend.as<int>(), maxexc, rmax, tol, scalars());
+            d_lexc.as<double>(), n, grid, d_key2.as<int>(), d_val2.as<int>(), cstart(), cend(),
+            maxexc, rmax, tol, scalars());
         launched("step_check_kernel");
-        if (download_scalars().missed_step) {
+        if (download_scalars().end.missed_step) {
           decline(ResidentOutcome::excursion);
           step_missed = true;
           return false;
@@ -1537,6 +1771,17 @@ namespace Collide {
       mark(Profile::end);
       ++prof.steps;
       return true;
+    }
+
+    /* The step's end, enqueued only: end_kernel (excursions to dt, the step's check sums into
+       Scalars::end, zeroed here) and count_changed(). */
+    void CudaResidentStep::step_end(double dt)
+    {
+      cuda_check(cudaMemsetAsync(&scalars()->end, 0, sizeof(EndSums), stream), "cudaMemset");
+      end_kernel<<<nblocks(n, TILE), TILE, 0, stream>>>(
+          d_bodies.as<Body>(), n, dt, d_bound.as<double>(), d_lexc.as<double>(), scalars());
+      launched("end_kernel");
+      count_changed();
     }
 
     /* Order serial (serial_loop.cuh): the step's events one globally earliest at a time, the
@@ -1548,8 +1793,8 @@ namespace Collide {
       constexpr int SERIAL_ITERATIONS = 64;
       const double dt = dp.dt;
       // One window, the step: start points and window excursions as the host's serial order.
-      window_start_kernel<<<nblocks(n, TILE), TILE, 0, stream>>>(d_bodies.as<Body>(), n, 0.0, dt,
-                                                                 1.0, 0.0, d_wbound.as<double>());
+      window_start_kernel<<<nblocks(n, TILE), TILE, 0, stream>>>(
+          d_bodies.as<Body>(), n, 0.0, dt, 1.0, 0.0, nullptr, d_wbound.as<double>());
       launched("window_start_kernel");
       const GroupGraph graph{d_bodies.as<Body>(), d_edges.as<Edge>(), d_adj_start.as<int>(),
                              d_adj.as<int>(),     d_best.as<Event>(), nullptr};
@@ -1611,7 +1856,6 @@ namespace Collide {
     {
       changed_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_bodies.as<Body>(), n, d_count.as<int>());
       launched("changed_kernel");
-      cuda_check(cudaMemsetAsync(d_count.as<int>() + n, 0, sizeof(int), stream), "cudaMemset");
       exclusive_sum(d_count.as<int>(), d_offset.as<int>(), n + 1);
       cuda_check(cudaMemcpyAsync(&scalars()->changed, d_offset.as<int>() + n, sizeof(int),
                                  cudaMemcpyDeviceToDevice, stream),
@@ -1779,9 +2023,11 @@ namespace Collide {
       const auto t_down = Clock::now();
       // In body order, so that the host writes the atoms' arrays front to back.
       d_sums.reserve((size_t) n * sizeof(AtomResult), "cudaMalloc(atom results)");
+      if (spin) d_rspin.reserve(n3, "cudaMalloc(atom results)");
+      double *d_rsp = spin ? d_rspin.as<double>() : nullptr;
       const int changed = host_scalars->changed;    // count_changed()'s
       atom_results_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
-          d_bodies.as<Body>(), n, p.dt, d_offset.as<int>(), d_sums.as<AtomResult>());
+          d_bodies.as<Body>(), n, p.dt, d_offset.as<int>(), d_sums.as<AtomResult>(), d_rsp);
       launched("atom_results_kernel");
       tlast_end_kernel<<<nblocks(n, TILE), TILE, 0, stream>>>(d_bodies.as<Body>(), n, p.dt, a.never,
                                                               d_atlast.as<double>());
@@ -1795,9 +2041,12 @@ namespace Collide {
       const bool whole = !scatter && changed > n / 32 && locked[0].p && locked[1].p;
       if (whole) {
         ++prof.whole;
-        atom_write_kernel<<<nblocks(changed), BLOCK, 0, stream>>>(
-            d_sums.as<AtomResult>(), changed, d_ax.as<double>(), d_av.as<double>(), d_spin);
-        launched("atom_write_kernel");
+        if (changed > 0) {
+          atom_write_kernel<<<nblocks(changed), BLOCK, 0, stream>>>(
+              d_sums.as<AtomResult>(), d_rsp, changed, d_ax.as<double>(), d_av.as<double>(),
+              d_spin);
+          launched("atom_write_kernel");
+        }
         cuda_check(cudaMemcpyAsync(a.x, d_ax.ptr, n3, cudaMemcpyDeviceToHost, stream),
                    "cudaMemcpy(x)");
         cuda_check(cudaMemcpyAsync(a.v, d_av.ptr, n3, cudaMemcpyDeviceToHost, stream),
@@ -1816,7 +2065,14 @@ namespace Collide {
         host_results.reserve(std::max((size_t) changed, (size_t) n / 4) * sizeof(AtomResult),
                              "cudaMallocHost(atom results)");
         fetch(d_sums, host_results, changed * sizeof(AtomResult), "cudaMemcpy(atom results)");
+        if (spin) {
+          host_rspin.reserve(std::max((size_t) changed, (size_t) n / 4) * 3 * sizeof(double),
+                             "cudaMallocHost(atom results)");
+          fetch(d_rspin, host_rspin, (size_t) changed * 3 * sizeof(double),
+                "cudaMemcpy(atom results)");
+        }
         cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(atom results)");
+        const double *w = host_rspin.as<double>();
         for (int k = 0; k < changed; ++k) {
           const AtomResult &r = host_results.as<AtomResult>()[k];
           for (int d = 0; d < 3; ++d) {
@@ -1824,7 +2080,7 @@ namespace Collide {
             a.v[3 * r.index + d] = r.v[d];
           }
           if (spin)
-            for (int d = 0; d < 3; ++d) a.omega[3 * r.index + d] = r.omega[d];
+            for (int d = 0; d < 3; ++d) a.omega[3 * r.index + d] = w[3 * k + d];
         }
       }
       report.t_download = seconds_since(t_down);
