@@ -110,7 +110,9 @@ bool LammpsExchange::to_ranks(const std::vector<int> &dest,
                               const std::vector<std::vector<double>> &send,
                               std::vector<double> &recv)
 {
-  constexpr int TAG = 7411;
+  // Consecutive calls use different tags, so that a message of the next call (sent by a rank
+  // whose barrier has completed) is never taken by a rank still probing in this one.
+  const int TAG = 7411 + (int) (++p2p_calls & 1);
   const int nd = (int) dest.size();
   std::vector<MPI_Request> sreq(nd, MPI_REQUEST_NULL);
   for (int k = 0; k < nd; ++k) {

@@ -36,6 +36,7 @@ class LammpsExchange : public HSGPU::Collide::Exchange {
  private:
   FixHardSphere *fix;
   MPI_Comm p2p;    // a copy of the world for to_ranks()'s messages, apart from LAMMPS's own
+  long p2p_calls = 0;
 };
 
 }    // namespace LAMMPS_NS

@@ -414,6 +414,18 @@ Spanning run_dense(MPI_Comm comm, const std::string &kind, const std::string &or
   return s;
 }
 
+// The run on all ranks against the serial order on one: bitwise, spins and counts included.
+void expect_as_serial(const Spanning &world, const Spanning &single, const std::string &kind,
+                      int np)
+{
+  EXPECT_EQ(max_abs_diff(world.x, single.x), 0.0) << kind << ": " << np << " ranks vs serial";
+  EXPECT_EQ(max_abs_diff(world.v, single.v), 0.0) << kind << ": " << np << " ranks vs serial";
+  EXPECT_EQ(max_abs_diff(world.omega, single.omega), 0.0) << kind << ": spins";
+  EXPECT_EQ(world.collisions, single.collisions) << kind;
+  EXPECT_EQ(world.events, single.events) << kind;
+  EXPECT_GT(single.collisions, 20000.0) << kind;
+}
+
 // cutoff: the ghost cutoff (the deeper the ghost shell, the more groups some rank holding an
 // atom of them sees whole); share: the largest part of the atoms in spanning groups that may
 // be gathered.
@@ -438,12 +450,7 @@ void compare_spanning(const std::string &kind, int steps, const std::string &cut
   }
   if (me == 0) {
     const Spanning single = run_dense(MPI_COMM_SELF, kind, "serial", steps, cutoff);
-    EXPECT_EQ(max_abs_diff(world.x, single.x), 0.0) << kind << ": " << np << " ranks vs serial";
-    EXPECT_EQ(max_abs_diff(world.v, single.v), 0.0) << kind << ": " << np << " ranks vs serial";
-    EXPECT_EQ(max_abs_diff(world.omega, single.omega), 0.0) << kind << ": spins";
-    EXPECT_EQ(world.collisions, single.collisions) << kind;
-    EXPECT_EQ(world.events, single.events) << kind;
-    EXPECT_GT(single.collisions, 20000.0) << kind;
+    expect_as_serial(world, single, kind, np);
     std::printf("[ MPI      ] %s, cutoff %s, %d ranks (parallel) vs 1 (serial), %d steps, %.0f "
                 "collisions: "
                 "per step %.3g windows, %.4g atoms in spanning groups, %.4g such groups resolved "
@@ -474,12 +481,7 @@ void compare_neighbour_gather(const std::string &kind, int steps)
   }
   if (me == 0) {
     const Spanning single = run_dense(MPI_COMM_SELF, kind, "serial", steps, "2.5", "gather");
-    EXPECT_EQ(max_abs_diff(world.x, single.x), 0.0) << kind << ": " << np << " ranks vs serial";
-    EXPECT_EQ(max_abs_diff(world.v, single.v), 0.0) << kind << ": " << np << " ranks vs serial";
-    EXPECT_EQ(max_abs_diff(world.omega, single.omega), 0.0) << kind << ": spins";
-    EXPECT_EQ(world.collisions, single.collisions) << kind;
-    EXPECT_EQ(world.events, single.events) << kind;
-    EXPECT_GT(single.collisions, 20000.0) << kind;
+    expect_as_serial(world, single, kind, np);
     std::printf("[ MPI      ] %s, spanning gather, %d ranks (parallel) vs 1 (serial), %d steps, "
                 "%.0f collisions: per step %.4g atoms in spanning groups, %.3g gathers, %.3g of "
                 "them with the neighbouring ranks only\n",
