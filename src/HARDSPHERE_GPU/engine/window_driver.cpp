@@ -366,24 +366,34 @@ namespace Collide {
     gbodies.resize(ng);
     gmine.assign(ng, -1);
     gmissing.assign(ng, 0);
-    std::vector<long> ids(ng);
+    for (int k = 0; k < ng; ++k) unpack_body(&recv[order[k].second], gbodies[k], spin);
+    // ID -> index: open addressing (IDs are positive), twice as many slots as bodies.
+    size_t slots = 16;
+    while (slots < 2 * (size_t) ng) slots <<= 1;
+    idkey.assign(slots, 0);
+    idval.resize(slots);
+    const size_t mask = slots - 1;
+    auto slot_of = [&](long id) {
+      return (size_t) (((unsigned long long) id * 0x9E3779B97F4A7C15ULL) >> 20) & mask;
+    };
     for (int k = 0; k < ng; ++k) {
-      unpack_body(&recv[order[k].second], gbodies[k], spin);
-      ids[k] = gbodies[k].id;
+      size_t h = slot_of(gbodies[k].id);
+      while (idkey[h] != 0) h = (h + 1) & mask;
+      idkey[h] = gbodies[k].id;
+      idval[h] = k;
     }
+    auto present = [&](long id) {
+      for (size_t h = slot_of(id); idkey[h] != 0; h = (h + 1) & mask)
+        if (idkey[h] == id) return idval[h];
+      return -1;
+    };
     {
       size_t off = (size_t) mine_off;
       for (int b : bsent) {
-        const long id = (long) recv[off + 24];
-        const int k = (int) (std::lower_bound(ids.begin(), ids.end(), id) - ids.begin());
-        gmine[k] = b;
+        gmine[present((long) recv[off + 24])] = b;
         off += entry_length(&recv[off], nbody);
       }
     }
-    auto present = [&](long id) {
-      const auto it = std::lower_bound(ids.begin(), ids.end(), id);
-      return (it == ids.end() || *it != id) ? -1 : (int) (it - ids.begin());
-    };
     for (int k = 0; k < ng; ++k) {
       const double *h = &recv[order[k].second];
       const int nhigh = (int) h[nbody], nlow = (int) h[nbody + 1];

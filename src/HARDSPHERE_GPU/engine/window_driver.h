@@ -221,6 +221,8 @@ namespace Collide {
     std::vector<std::vector<double>> nsend;
     std::vector<char> gmissing;
     std::vector<size_t> gentry;    // per gathered body: its entry's offset in recv
+    std::vector<long> idkey;       // gathered bodies by ID (open addressing; 0: empty)
+    std::vector<int> idval;
     bool unknown_owner = false;    // a foreign node's owner rank is not known
     long stats_neighbour = 0;
     int neighbour_skip = 0;       // gathers left that go to every rank at once
