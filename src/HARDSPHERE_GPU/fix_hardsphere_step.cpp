@@ -1140,6 +1140,9 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
     driver.run(bodies, edges, efedges, fnodes, p, wsettings, *be, *exchange, mine, stats,
                vflag_atom ? bvir.data() : nullptr,
                comm->nprocs > 1 && !spanning_gather ? &ffedges : nullptr);
+    if (driver.results_missing_last())
+      error->one(FLERR, "Fix hardsphere: internal error: a result of a group that spans ranks, "
+                        "resolved on another rank, did not arrive");
     double xe[3], ve[3];
     for (Body &b : bodies) HSGPU::Collide::end_of_step(b, dt, xe, ve);
     sum_tallies(mine, all);

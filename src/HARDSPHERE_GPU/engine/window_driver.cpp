@@ -292,6 +292,11 @@ namespace Collide {
      and image shift (NPARTNER values), each lower one's ID. */
   namespace {
     constexpr int NHEAD = 3;    // after the body: partners above, below, the owner's rank
+    /// Slot of an ID (> 0) in a table of mask + 1 (a power of two) slots.
+    size_t id_slot(long id, size_t mask)
+    {
+      return (size_t) (((unsigned long long) id * 0x9E3779B97F4A7C15ULL) >> 20) & mask;
+    }
     size_t entry_length(const double *h, int nbody)
     {
       return nbody + NHEAD + (size_t) NPARTNER * (size_t) h[nbody] + (size_t) h[nbody + 1];
@@ -340,6 +345,15 @@ namespace Collide {
     return true;
   }
 
+  /* The gathered body of ID id (its index in gbodies), or -1. */
+  int WindowDriver::gathered_index(long id) const
+  {
+    const size_t mask = idkey.size() - 1;
+    for (size_t h = id_slot(id, mask); idkey[h] != 0; h = (h + 1) & mask)
+      if (idkey[h] == id) return idval[h];
+    return -1;
+  }
+
   /* The gathered entries in `recv` into gbodies (in ID order), gmine (this rank's body of each,
      -1: another rank's) and gedges (from the higher-ID partner lists).  sparse: a gather to the
      neighbouring ranks, where a partner may be missing (gmissing); else every partner is
@@ -373,20 +387,13 @@ namespace Collide {
     idkey.assign(slots, 0);
     idval.resize(slots);
     const size_t mask = slots - 1;
-    auto slot_of = [&](long id) {
-      return (size_t) (((unsigned long long) id * 0x9E3779B97F4A7C15ULL) >> 20) & mask;
-    };
     for (int k = 0; k < ng; ++k) {
-      size_t h = slot_of(gbodies[k].id);
+      size_t h = id_slot(gbodies[k].id, mask);
       while (idkey[h] != 0) h = (h + 1) & mask;
       idkey[h] = gbodies[k].id;
       idval[h] = k;
     }
-    auto present = [&](long id) {
-      for (size_t h = slot_of(id); idkey[h] != 0; h = (h + 1) & mask)
-        if (idkey[h] == id) return idval[h];
-      return -1;
-    };
+    auto present = [&](long id) { return gathered_index(id); };
     {
       size_t off = (size_t) mine_off;
       for (int b : bsent) {
@@ -602,12 +609,22 @@ namespace Collide {
     // Only the groups with a body of this rank are resolved here (the others' results would
     // be thrown away): the work per rank follows its own boundary.  Each group's tally and
     // figures are counted by the rank of its lowest-ID body (its first member: gbodies are in
-    // ID order).
+    // ID order).  After a gather to the neighbours that rank alone resolves the group (every
+    // rank holding a body of it holds it whole) and sends the other owners their bodies'
+    // results; after the gather from every rank, every rank holding a body resolves it.
+    long expect = 0;    // this rank's bodies whose results another rank sends
     {
       int nmine = 0, at = 0;
       for (int g = 0; g < ngr; ++g) {
         bool here = false;
-        for (int m = gstart2[g]; m < gstart2[g + 1] && !here; ++m) here = gmine[gmembers2[m]] >= 0;
+        if (sparse) {
+          here = gmine[gmembers2[gstart2[g]]] >= 0;
+          if (!here)
+            for (int m = gstart2[g]; m < gstart2[g + 1]; ++m) expect += gmine[gmembers2[m]] >= 0;
+        } else {
+          for (int m = gstart2[g]; m < gstart2[g + 1] && !here; ++m)
+            here = gmine[gmembers2[m]] >= 0;
+        }
         if (!here) continue;
         const int len = gstart2[g + 1] - gstart2[g];
         largest = std::max(largest, (long) len);
@@ -654,6 +671,57 @@ namespace Collide {
           std::copy(gvir.begin() + 6 * (size_t) k, gvir.begin() + 6 * (size_t) (k + 1),
                     wvir.begin() + 6 * (size_t) gmine[k]);
       }
+    if (sparse && results_to_owners(bodies, ngr, ex) != expect) results_missing = true;
+  }
+
+  /* After a gather to the neighbours: the results of the bodies of the ngr groups resolved here
+     (gstart2, gmembers2) that other ranks own go to those ranks (ID, result, per-atom virial on the steps that
+     tally it), and the results of this rank's bodies that others resolved come in. */
+  long WindowDriver::results_to_owners(std::vector<Body> &bodies, int ngr, Exchange &ex)
+  {
+    const int nbody = spin ? NBODY + 3 : NBODY;
+    const int nr = nres(spin), nval = 1 + nr + (virial_all ? 6 : 0);
+    rootrank.clear();    // (destination, gathered body)
+    for (int g = 0; g < ngr; ++g)
+      for (int m = gstart2[g]; m < gstart2[g + 1]; ++m) {
+        const int k = gmembers2[m];
+        const int r = (int) recv[gentry[k] + nbody + 2];
+        if (r != ex.rank()) rootrank.emplace_back(r, k);
+      }
+    std::sort(rootrank.begin(), rootrank.end());
+    ndest.clear();
+    for (const auto &dk : rootrank)
+      if (ndest.empty() || ndest.back() != dk.first) ndest.push_back(dk.first);
+    nsend.resize(ndest.size());
+    for (auto &v : nsend) v.clear();
+    size_t d = 0;
+    for (const auto &dk : rootrank) {
+      while (ndest[d] != dk.first) ++d;
+      std::vector<double> &o = nsend[d];
+      const size_t at = o.size();
+      o.resize(at + nval, 0.0);
+      o[at] = (double) gbodies[dk.second].id;
+      pack_result(gbodies[dk.second], &o[at + 1], spin);
+      if (virial_all && tally_virial)
+        std::copy(gvir.begin() + 6 * (size_t) dk.second, gvir.begin() + 6 * (size_t) (dk.second + 1),
+                  o.begin() + at + 1 + nr);
+    }
+    std::vector<double> got;
+    ex.to_ranks(ndest, nsend, got);
+    long taken = 0;
+    for (size_t off = 0; off + nval <= got.size(); off += nval) {
+      const int k = gathered_index((long) got[off]);
+      if (k < 0 || gmine[k] < 0) {
+        results_missing = true;    // never expected: a result for a body that is not here
+        continue;
+      }
+      unpack_result(&got[off + 1], bodies[gmine[k]], spin);
+      if (tally_virial)
+        std::copy(got.begin() + off + 1 + nr, got.begin() + off + 1 + nr + 6,
+                  wvir.begin() + 6 * (size_t) gmine[k]);
+      ++taken;
+    }
+    return taken;
   }
 
   /* Each local body's largest distance from its window start point, at the window end t1
@@ -1147,6 +1215,8 @@ namespace Collide {
     ex.sum(counts, 2);
     const long target = WindowChooser::target(s, counts[0]);
     const bool virial_step = counts[1] > 0;
+    virial_all = virial_step;
+    results_missing = false;
     // Every body's window bound assumes at least a quarter of the fastest drift speed: a body
     // at rest that is hit moves about as fast as what hit it, and a bound of zero would make
     // every such hit a repair (in a settled pile, of the whole pile).

@@ -181,6 +181,10 @@ namespace Collide {
              Tally &mine, WindowStats &stats, double *body_virial = nullptr,
              const std::vector<Edge> *foreign_pairs = nullptr);
 
+    /// After run(): a result that another rank should have sent did not arrive (never
+    /// expected; the caller stops with an internal error).
+    bool results_missing_last() const { return results_missing; }
+
    private:
     WindowChooser chooser;
     double speed_floor = 0.0;    // f vmax of this step
@@ -223,6 +227,8 @@ namespace Collide {
     std::vector<size_t> gentry;    // per gathered body: its entry's offset in recv
     std::vector<long> idkey;       // gathered bodies by ID (open addressing; 0: empty)
     std::vector<int> idval;
+    bool virial_all = false;         // some rank tallies per-atom virials this step
+    bool results_missing = false;    // a result of a group resolved elsewhere did not arrive
     bool unknown_owner = false;    // a foreign node's owner rank is not known
     long stats_neighbour = 0;
     int neighbour_skip = 0;       // gathers left that go to every rank at once
@@ -285,6 +291,8 @@ namespace Collide {
     bool neighbour_gather(const std::vector<ForeignNode> &foreign, int nb, int nentry,
                           Exchange &ex, long &mine_off);
     void unpack_gathered(long mine_off, bool sparse);
+    int gathered_index(long id) const;
+    long results_to_owners(std::vector<Body> &bodies, int ngr, Exchange &ex);
     void resolve_boundary(std::vector<Body> &bodies, const std::vector<ForeignEdge> &fedges,
                           const std::vector<ForeignNode> &foreign, const Params &p, double t1,
                           CollisionBackend &backend, Exchange &ex, Tally &tb, long &largest,
