@@ -2,6 +2,7 @@
 #include "window_driver.h"
 
 #include <algorithm>
+#include <functional>
 #include <cmath>
 #include <limits>
 #include <utility>
@@ -345,6 +346,24 @@ namespace Collide {
     return true;
   }
 
+  /* The messages of sendto's (rank, gathered body) pairs: ndest the distinct ranks in order,
+     nsend[d] what pack() appends for each body going to ndest[d]. */
+  void WindowDriver::fill_destinations(
+      const std::function<void(std::vector<double> &, int)> &pack)
+  {
+    std::sort(sendto.begin(), sendto.end());
+    ndest.clear();
+    for (const auto &dk : sendto)
+      if (ndest.empty() || ndest.back() != dk.first) ndest.push_back(dk.first);
+    nsend.resize(ndest.size());
+    for (auto &v : nsend) v.clear();
+    size_t d = 0;
+    for (const auto &dk : sendto) {
+      while (ndest[d] != dk.first) ++d;
+      pack(nsend[d], dk.second);
+    }
+  }
+
   /* The gathered body of ID id (its index in gbodies), or -1. */
   int WindowDriver::gathered_index(long id) const
   {
@@ -550,7 +569,7 @@ namespace Collide {
       int round = 0;
       while ((sparse = !incomplete()) == false && round++ < FORWARD_ROUNDS) {
         std::vector<int> owners;
-        rootrank.clear();    // (destination, entry index)
+        sendto.clear();
         for (int g = 0; g < ngr; ++g) {
           bool here = false;
           owners.clear();
@@ -566,22 +585,14 @@ namespace Collide {
             if (d == ex.rank()) continue;
             for (int m = gstart2[g]; m < gstart2[g + 1]; ++m) {
               const int k = gmembers2[m];
-              if ((int) recv[gentry[k] + nbody + 2] != d) rootrank.emplace_back(d, k);
+              if ((int) recv[gentry[k] + nbody + 2] != d) sendto.emplace_back(d, k);
             }
           }
         }
-        std::sort(rootrank.begin(), rootrank.end());
-        ndest.clear();
-        for (const auto &dk : rootrank)
-          if (ndest.empty() || ndest.back() != dk.first) ndest.push_back(dk.first);
-        nsend.resize(ndest.size());
-        for (auto &v : nsend) v.clear();
-        size_t d = 0;
-        for (const auto &dk : rootrank) {
-          while (ndest[d] != dk.first) ++d;
-          const double *h = &recv[gentry[dk.second]];
-          nsend[d].insert(nsend[d].end(), h, h + entry_length(h, nbody));
-        }
+        fill_destinations([&](std::vector<double> &o, int k) {
+          const double *h = &recv[gentry[k]];
+          o.insert(o.end(), h, h + entry_length(h, nbody));
+        });
         std::vector<double> got;
         ex.to_ranks(ndest, nsend, got);
         if (!got.empty()) {
@@ -681,31 +692,22 @@ namespace Collide {
   {
     const int nbody = spin ? NBODY + 3 : NBODY;
     const int nr = nres(spin), nval = 1 + nr + (virial_all ? 6 : 0);
-    rootrank.clear();    // (destination, gathered body)
+    sendto.clear();
     for (int g = 0; g < ngr; ++g)
       for (int m = gstart2[g]; m < gstart2[g + 1]; ++m) {
         const int k = gmembers2[m];
         const int r = (int) recv[gentry[k] + nbody + 2];
-        if (r != ex.rank()) rootrank.emplace_back(r, k);
+        if (r != ex.rank()) sendto.emplace_back(r, k);
       }
-    std::sort(rootrank.begin(), rootrank.end());
-    ndest.clear();
-    for (const auto &dk : rootrank)
-      if (ndest.empty() || ndest.back() != dk.first) ndest.push_back(dk.first);
-    nsend.resize(ndest.size());
-    for (auto &v : nsend) v.clear();
-    size_t d = 0;
-    for (const auto &dk : rootrank) {
-      while (ndest[d] != dk.first) ++d;
-      std::vector<double> &o = nsend[d];
+    fill_destinations([&](std::vector<double> &o, int k) {
       const size_t at = o.size();
       o.resize(at + nval, 0.0);
-      o[at] = (double) gbodies[dk.second].id;
-      pack_result(gbodies[dk.second], &o[at + 1], spin);
+      o[at] = (double) gbodies[k].id;
+      pack_result(gbodies[k], &o[at + 1], spin);
       if (virial_all && tally_virial)
-        std::copy(gvir.begin() + 6 * (size_t) dk.second, gvir.begin() + 6 * (size_t) (dk.second + 1),
+        std::copy(gvir.begin() + 6 * (size_t) k, gvir.begin() + 6 * (size_t) (k + 1),
                   o.begin() + at + 1 + nr);
-    }
+    });
     std::vector<double> got;
     ex.to_ranks(ndest, nsend, got);
     long taken = 0;

@@ -63,6 +63,7 @@
 
 #include "core/event_order.h"
 
+#include <functional>
 #include <utility>
 #include <vector>
 
@@ -220,7 +221,7 @@ namespace Collide {
     std::vector<char> bchosen;    // local body: in a group resolve_boundary() gathers
     // the gather to the neighbouring ranks: per boundary root, the ranks of its foreign
     // nodes; per destination rank, what goes there; per gathered body, a partner missing
-    std::vector<std::pair<int, int>> rootrank;
+    std::vector<std::pair<int, int>> rootrank, sendto;    // sendto: (rank, gathered body)
     std::vector<int> ndest;
     std::vector<std::vector<double>> nsend;
     std::vector<char> gmissing;
@@ -292,6 +293,7 @@ namespace Collide {
                           Exchange &ex, long &mine_off);
     void unpack_gathered(long mine_off, bool sparse);
     int gathered_index(long id) const;
+    void fill_destinations(const std::function<void(std::vector<double> &, int)> &pack);
     long results_to_owners(std::vector<Body> &bodies, int ngr, Exchange &ex);
     void resolve_boundary(std::vector<Body> &bodies, const std::vector<ForeignEdge> &fedges,
                           const std::vector<ForeignNode> &foreign, const Params &p, double t1,
