@@ -41,9 +41,10 @@
    neighbouring ranks only (on more than two ranks: each boundary body's state to the ranks
    that own a foreign node of its group, Exchange::to_ranks), and, unless some rank then lacks
    a partner of a body in a group of its own (a group reaching past its neighbours: one
-   reduction tells), each rank resolves the groups that hold a body of its own; otherwise the
-   gather is from every rank (Exchange::allgather), each rank again resolving only its own
-   groups.  After such a fall-back the next gathers go to every rank at once for a while (a
+   reduction tells), each group is resolved by the rank of its lowest-ID body, which sends the
+   other owners their bodies' results (Exchange::to_ranks again); otherwise the gather is from
+   every rank (Exchange::allgather), and every rank resolves the groups that hold a body of its
+   own.  After such a fall-back the next gathers go to every rank at once for a while (a
    pile over many ranks is one group that no neighbourhood holds).
 
    Event times depend only on the two bodies' states (core/trajectory.h), never on the window
