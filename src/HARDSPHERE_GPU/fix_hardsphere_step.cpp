@@ -1356,12 +1356,10 @@ void FixHardSphere::post_run()
 {
   const RunSummary &r = run_sum;
   if (r.steps == 0) return;
-  // The bytes all ranks received (every rank takes part in the sum).
-  double bytes = 0.0, messages = 0.0;
-  if (comm->nprocs > 1) {
-    MPI_Allreduce(&r.bytes, &bytes, 1, MPI_DOUBLE, MPI_SUM, world);
-    MPI_Allreduce(&r.messages, &messages, 1, MPI_DOUBLE, MPI_SUM, world);
-  }
+  // The bytes and messages all ranks received (every rank takes part in the sum).
+  double mine[2] = {r.bytes, r.messages}, all[2] = {0.0, 0.0};
+  if (comm->nprocs > 1) MPI_Allreduce(mine, all, 2, MPI_DOUBLE, MPI_SUM, world);
+  const double bytes = all[0], messages = all[1];
   if (comm->me != 0) return;
   const double n = (double) r.steps;
   utils::logmesg(lmp,

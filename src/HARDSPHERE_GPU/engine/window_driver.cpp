@@ -19,6 +19,13 @@ namespace Collide {
     constexpr int NBODY = 29;
     static_assert(NBODY + 3 <= Exchange::MAX_VALUES, "to_foreign() takes a body's state");
     constexpr int NPARTNER = 4;
+    /// Where pack_body() puts the body's ID.
+    constexpr int ID_AT = 24;
+    /// pack_body()'s values, the spin last with friction.
+    int body_values(bool spin)
+    {
+      return spin ? NBODY + 3 : NBODY;
+    }
 
     /// Gap between two bodies' surfaces at the window start, from their window start points
     /// wa, wb (a has the lower ID; shift is the image shift of x_a - x_b).  Computed in this
@@ -56,7 +63,7 @@ namespace Collide {
       o[21] = b.tlast;
       o[22] = b.exc2;
       o[23] = b.wexc2;
-      o[24] = (double) b.id;
+      o[ID_AT] = (double) b.id;
       o[25] = (double) b.last;
       o[26] = b.type;
       o[27] = b.nevents;
@@ -141,7 +148,7 @@ namespace Collide {
       b.tlast = o[21];
       b.exc2 = o[22];
       b.wexc2 = o[23];
-      b.id = (long) o[24];
+      b.id = (long) o[ID_AT];
       b.last = (long) o[25];
       b.type = (int) o[26];
       b.nevents = (int) o[27];
@@ -293,6 +300,7 @@ namespace Collide {
      and image shift (NPARTNER values), each lower one's ID. */
   namespace {
     constexpr int NHEAD = 3;    // after the body: partners above, below, the owner's rank
+    constexpr int OWNER_AT = 2;    // the owner's rank, after the body
     /// Slot of an ID (> 0) in a table of mask + 1 (a power of two) slots.
     size_t id_slot(long id, size_t mask)
     {
@@ -364,6 +372,12 @@ namespace Collide {
     }
   }
 
+  /* The rank that owns gathered body k (from its entry in recv). */
+  int WindowDriver::gathered_owner(int k) const
+  {
+    return (int) recv[gentry[k] + body_values(spin) + OWNER_AT];
+  }
+
   /* The gathered body of ID id (its index in gbodies), or -1. */
   int WindowDriver::gathered_index(long id) const
   {
@@ -379,12 +393,12 @@ namespace Collide {
      expected (gather_broken where one is not). */
   void WindowDriver::unpack_gathered(long mine_off, bool sparse)
   {
-    const int nbody = spin ? NBODY + 3 : NBODY;
+    const int nbody = body_values(spin);
     gbodies.clear();
     gedges.clear();
     std::vector<std::pair<long, size_t>> order;
     for (size_t off = 0; off < recv.size(); off += entry_length(&recv[off], nbody))
-      order.emplace_back((long) recv[off + 24], off);
+      order.emplace_back((long) recv[off + ID_AT], off);
     std::sort(order.begin(), order.end());
     // A body's entry may come twice from a gather to the neighbouring ranks (from its owner
     // and passed on by another rank): the same values, kept once.
@@ -412,11 +426,10 @@ namespace Collide {
       idkey[h] = gbodies[k].id;
       idval[h] = k;
     }
-    auto present = [&](long id) { return gathered_index(id); };
     {
       size_t off = (size_t) mine_off;
       for (int b : bsent) {
-        gmine[present((long) recv[off + 24])] = b;
+        gmine[gathered_index((long) recv[off + ID_AT])] = b;
         off += entry_length(&recv[off], nbody);
       }
     }
@@ -425,7 +438,7 @@ namespace Collide {
       const int nhigh = (int) h[nbody], nlow = (int) h[nbody + 1];
       for (int q = 0; q < nhigh; ++q) {
         const double *o = h + nbody + NHEAD + (size_t) NPARTNER * q;
-        const int j = present((long) o[0]);
+        const int j = gathered_index((long) o[0]);
         if (j < 0) {
           // Sparse: a partner on a rank that is not a neighbour here.  Otherwise never
           // expected (every rank sees the same gathered data and falls back alike).
@@ -443,7 +456,8 @@ namespace Collide {
       }
       if (sparse)
         for (int q = 0; q < nlow; ++q)
-          if (present((long) h[nbody + NHEAD + (size_t) NPARTNER * nhigh + q]) < 0) gmissing[k] = 1;
+          if (gathered_index((long) h[nbody + NHEAD + (size_t) NPARTNER * nhigh + q]) < 0)
+            gmissing[k] = 1;
     }
   }
 
@@ -459,7 +473,7 @@ namespace Collide {
                                       double t1, CollisionBackend &backend, Exchange &ex, Tally &tb,
                                       long &largest, long &ngroups, long &nbound)
   {
-    const int nbody = spin ? NBODY + 3 : NBODY;
+    const int nbody = body_values(spin);
     // Over the view (gather_view): the local bodies of the groups marked in gsel, whose window
     // edges are all among the view's (each sent by the owner of its lower-ID body).
     const int nb = gather_view ? nlocal_bodies : (int) bodies.size();
@@ -516,7 +530,7 @@ namespace Collide {
       pack_body(bodies[b], &send[at], spin);
       send[at + nbody] = pstart[b + 1] - pstart[b];
       send[at + nbody + 1] = lstart[b + 1] - lstart[b];
-      send[at + nbody + 2] = ex.rank();
+      send[at + nbody + OWNER_AT] = ex.rank();
       send.insert(send.end(), partners.begin() + (size_t) NPARTNER * pstart[b],
                   partners.begin() + (size_t) NPARTNER * pstart[b + 1]);
       send.insert(send.end(), lows.begin() + lstart[b], lows.begin() + lstart[b + 1]);
@@ -566,8 +580,9 @@ namespace Collide {
       // rank passes the entries it holds of such a group of its own on to the group's other
       // ranks (the owners of its bodies), for at most FORWARD_ROUNDS rounds.
       constexpr int FORWARD_ROUNDS = 3;
-      int round = 0;
-      while ((sparse = !incomplete()) == false && round++ < FORWARD_ROUNDS) {
+      for (int round = 0;; ++round) {
+        sparse = !incomplete();
+        if (sparse || round == FORWARD_ROUNDS) break;
         std::vector<int> owners;
         sendto.clear();
         for (int g = 0; g < ngr; ++g) {
@@ -576,7 +591,7 @@ namespace Collide {
           for (int m = gstart2[g]; m < gstart2[g + 1]; ++m) {
             const int k = gmembers2[m];
             here |= gmine[k] >= 0;
-            owners.push_back((int) recv[gentry[k] + nbody + 2]);
+            owners.push_back(gathered_owner(k));
           }
           std::sort(owners.begin(), owners.end());
           owners.erase(std::unique(owners.begin(), owners.end()), owners.end());
@@ -585,7 +600,7 @@ namespace Collide {
             if (d == ex.rank()) continue;
             for (int m = gstart2[g]; m < gstart2[g + 1]; ++m) {
               const int k = gmembers2[m];
-              if ((int) recv[gentry[k] + nbody + 2] != d) sendto.emplace_back(d, k);
+              if (gathered_owner(k) != d) sendto.emplace_back(d, k);
             }
           }
         }
@@ -686,17 +701,17 @@ namespace Collide {
   }
 
   /* After a gather to the neighbours: the results of the bodies of the ngr groups resolved here
-     (gstart2, gmembers2) that other ranks own go to those ranks (ID, result, per-atom virial on the steps that
-     tally it), and the results of this rank's bodies that others resolved come in. */
+     (gstart2, gmembers2) that other ranks own go to those ranks (ID, result, per-atom virial on
+     the steps that tally it), and the results of this rank's bodies that others resolved come
+     in.  Returns how many came in. */
   long WindowDriver::results_to_owners(std::vector<Body> &bodies, int ngr, Exchange &ex)
   {
-    const int nbody = spin ? NBODY + 3 : NBODY;
     const int nr = nres(spin), nval = 1 + nr + (virial_all ? 6 : 0);
     sendto.clear();
     for (int g = 0; g < ngr; ++g)
       for (int m = gstart2[g]; m < gstart2[g + 1]; ++m) {
         const int k = gmembers2[m];
-        const int r = (int) recv[gentry[k] + nbody + 2];
+        const int r = gathered_owner(k);
         if (r != ex.rank()) sendto.emplace_back(r, k);
       }
     fill_destinations([&](std::vector<double> &o, int k) {
@@ -947,7 +962,7 @@ namespace Collide {
      the step's first window, what events change at the others. */
   void WindowDriver::refresh_foreign(std::vector<Body> &bodies, int nb, Exchange &ex, bool whole)
   {
-    const int nval = whole ? (spin ? NBODY + 3 : NBODY) : ndyn(spin);
+    const int nval = whole ? body_values(spin) : ndyn(spin);
     vsend.resize((size_t) nval * nb);
     for (int b = 0; b < nb; ++b) {
       if (whole)

@@ -114,8 +114,8 @@ namespace Collide {
     /// the other ranks send here into recv, concatenated in the order of their ranks.  No rank
     /// needs to know beforehand who sends to it.  Returns false where the exchange has no such
     /// path (the caller then gathers from every rank).
-    virtual bool to_ranks(const std::vector<int> &dest, const std::vector<std::vector<double>> &send,
-                          std::vector<double> &recv)
+    virtual bool to_ranks(const std::vector<int> &dest,
+                          const std::vector<std::vector<double>> &send, std::vector<double> &recv)
     {
       (void) dest;
       (void) send;
@@ -294,6 +294,7 @@ namespace Collide {
                           Exchange &ex, long &mine_off);
     void unpack_gathered(long mine_off, bool sparse);
     int gathered_index(long id) const;
+    int gathered_owner(int k) const;
     void fill_destinations(const std::function<void(std::vector<double> &, int)> &pack);
     long results_to_owners(std::vector<Body> &bodies, int ngr, Exchange &ex);
     void resolve_boundary(std::vector<Body> &bodies, const std::vector<ForeignEdge> &fedges,
