@@ -32,6 +32,10 @@ namespace Contact {
     return HUGE_VAL;
   }
 
+  /// Relative margin of pair_contact_time()'s horizon test: far above the round-off of the
+  /// contact time in float and in double (some ulps), far below any use of the horizon.
+  constexpr double HORIZON_MARGIN = 1e-6;
+
   template <class Real> HSGPU_HD Real dot3(const Real *a, const Real *b)
   {
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
@@ -67,8 +71,11 @@ namespace Contact {
   /// contact distance s while approaching: 0 when they overlap (or touch) and approach, never()
   /// when they recede, stay at rest relative to each other or miss.  "Approaching" means
   /// r.v < -bmin: bmin > 0 gives a dead zone for relative velocities at the round-off level.
+  /// horizon: a contact later than this may be reported as never() (it is either way when
+  /// horizon is never()); one sooner is returned exactly as without it.
   template <class Real>
-  HSGPU_HD Real pair_contact_time(const Real *r, const Real *v, Real s, Real bmin = Real(0))
+  HSGPU_HD Real pair_contact_time(const Real *r, const Real *v, Real s, Real bmin = Real(0),
+                                  Real horizon = Real(never()))
   {
     Real b = dot3(r, v);
     if (!(b < -bmin)) return Real(never());
@@ -83,6 +90,10 @@ namespace Contact {
       if (!(b < -bmin)) return Real(never());
     }
     if (c <= Real(0)) return Real(0);
+    // The contact time c / (-b + sqrt(b^2 - v.v c)) is at least c / (-2 b): where that lies
+    // beyond the horizon (with a margin far above the round-off of either expression) the
+    // square root and the division are not needed.
+    if (c > Real(2) * (-b) * horizon * Real(1 + HORIZON_MARGIN)) return Real(never());
     const Real disc = b * b - dot3(v, v) * c;
     if (disc < Real(0)) return Real(never());
     return c / (-b + sqrt(disc));

@@ -232,7 +232,7 @@ namespace Collide {
     double vs = 0.0;
     for (int d = 0; d < 3; ++d) vs += fabs(bi.v[d]) + fabs(bj.v[d]);
     const double s = bi.radius + bj.radius;
-    const double tau = Contact::pair_contact_time(r, v, s, ROUNDOFF_APPROACH * s * vs);
+    const double tau = Contact::pair_contact_time(r, v, s, ROUNDOFF_APPROACH * s * vs, dt - t0);
     if (tau == Contact::never()) return Contact::never();
     const double t = t0 + tau;
     return t < dt ? t : Contact::never();

@@ -29,6 +29,13 @@ namespace Collide {
     long target_group = 0;          // adaptive: largest group wanted; <= 0: max(256, N / 128)
   };
 
+  /// The step's own bound rule (core/trajectory.h's drift_bound(): twice the drift, at least
+  /// half the fastest atom's drift), as window settings: a window as long as the step with
+  /// these joins the candidate pairs that the step's search found with the step's bounds
+  /// (FixHardSphere takes them for `windows 1`).
+  constexpr double STEP_BOUND_FACTOR = 2.0;
+  constexpr double STEP_FLOOR_FRACTION = 0.5;
+
   /// The floor fraction of s, or `fallback` where s leaves it to the backend (the host step
   /// driver's is 0.25; the device-resident step's 0.5, as its repairs cost more).
   inline double floor_fraction_or(const WindowSettings &s, double fallback)
