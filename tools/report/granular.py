@@ -215,7 +215,8 @@ def column_runs(plan, quick):
 
     if quick:
         hs = [("guards off (tc 1e-7)", "tc 1e-7", [0.01, 0.02, 0.05]),
-              ("default guards", "", [0.01])]
+              ("default guards", "", [0.01]),
+              ("default guards, windows 1", "windows 1", [0.05])]
         gran = {"gran/hooke": [(1e5, [20]), (1e6, [10, 20])], "granular": [(1e6, [10])]}
         count = []
         seeds = []
@@ -224,6 +225,8 @@ def column_runs(plan, quick):
               ("guards off, reach 0.15", "tc 1e-7 reach 0.15", [0.005, 0.01, 0.02, 0.05, 0.1]),
               ("default guards", "", [0.001, 0.005, 0.01, 0.02, 0.05, 0.1]),
               ("default guards, reach 0.15", "reach 0.15", [0.01, 0.02, 0.05, 0.1]),
+              ("guards off, windows 1", "tc 1e-7 windows 1", [0.02, 0.05, 0.1]),
+              ("default guards, windows 1", "windows 1", [0.02, 0.05, 0.1]),
               ("tc/slow no", "tc/slow no", [0.01])]
         gran = {"gran/hooke": [(kn, [10, 20, 40, 80]) for kn in (1e4, 3e4, 1e5, 3e5, 1e6, 3e6)]
                 + [(1e7, [10, 20])],
