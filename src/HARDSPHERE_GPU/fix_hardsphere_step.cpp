@@ -479,11 +479,10 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
                                                  prd, periodic, r, sh);
         const double range = (srad[lo] + srad[hi]) + (sbound[lo] + sbound[hi]);
         if (r[0] * r[0] + r[1] * r[1] + r[2] * r[2] > range * range) continue;
-        Edge e;
+        Edge &e = ffedges.emplace_back();
         e.i = snode[lo];
         e.j = snode[hi];
         for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
-        ffedges.push_back(e);
         continue;
       }
       std::swap(a, c);    // a body (or an image of one) first
@@ -503,31 +502,40 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
     // Could be an overlap (the exact test below runs only if some pair is this close).
     const double near = (srad[lo] + srad[hi]) * (1.0 + 1e-6);
     if (d2 < near * near) maybe_overlap = true;
+    // Filled in place: an edge built on the stack and copied is read back in 16-byte pieces
+    // over its 4- and 8-byte stores, which stalls the copy until those stores complete.
     if (bj >= 0) {
-      Edge e;
+      Edge &e = (c >= nb || a >= nb ? iedges : edges).emplace_back();
       e.i = swap ? bj : bi;
       e.j = swap ? bi : bj;
       for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
-      (c >= nb || a >= nb ? iedges : edges).push_back(e);
     } else {
-      ForeignEdge fe;
+      ForeignEdge &fe = fedges.emplace_back();
       fe.body = bi;
       fe.node = node;
       fe.ghost = sidx[c];
       for (int d = 0; d < 3; ++d) fe.shift[d] = swap ? -sh[d] : sh[d];
-      fedges.push_back(fe);
     }
   }
   // A pair of my atoms found through periodic images appears once per image held here: keep
   // one.  Pairs found directly appear once, and never also through an image (init() keeps
-  // periodic lengths above twice the candidate range).
+  // periodic lengths above twice the candidate range).  They are put in (i, j) order by two
+  // stable counting passes, by j and then by i (linear in the edges and bodies, where a
+  // comparison sort stalls on its unpredictable comparisons); the copies of a pair are alike
+  // (the same bodies, orientation and image shift), so the first of each is kept.
   if (!iedges.empty()) {
-    std::sort(iedges.begin(), iedges.end(),
-              [](const Edge &a, const Edge &b) { return a.i < b.i || (a.i == b.i && a.j < b.j); });
-    iedges.erase(std::unique(iedges.begin(), iedges.end(),
-                             [](const Edge &a, const Edge &b) { return a.i == b.i && a.j == b.j; }),
-                 iedges.end());
-    edges.insert(edges.end(), iedges.begin(), iedges.end());
+    auto counting_pass = [&](int Edge::*key, const std::vector<Edge> &from, std::vector<Edge> &to) {
+      icount.assign((size_t) nb + 1, 0);
+      for (const Edge &e : from) ++icount[e.*key + 1];
+      for (int b = 0; b < nb; ++b) icount[b + 1] += icount[b];
+      to.resize(from.size());
+      for (const Edge &e : from) to[icount[e.*key]++] = e;
+    };
+    counting_pass(&Edge::j, iedges, isorted);
+    counting_pass(&Edge::i, isorted, iedges);
+    for (size_t k = 0; k < iedges.size(); ++k)
+      if (k == 0 || iedges[k].i != iedges[k - 1].i || iedges[k].j != iedges[k - 1].j)
+        edges.push_back(iedges[k]);
   }
   std::sort(fedges.begin(), fedges.end(), [](const ForeignEdge &a, const ForeignEdge &b) {
     return a.body < b.body || (a.body == b.body && a.node < b.node);
