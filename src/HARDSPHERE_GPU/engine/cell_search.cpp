@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 
 namespace HSGPU {
 namespace Collide {
@@ -56,17 +57,25 @@ namespace Collide {
     for (int d = 0; d < 3; ++d) inv[d] = ncell[d] / std::max(len[d], 1e-300);
     const long nc = cells();
     // Counting sort by cell, stable: in each cell the searched points (lower indices, as
-    // members come in increasing order) precede the others.
+    // members come in increasing order) precede the others.  sstart counts the searched ones.
     start.assign(nc + 1, 0);
+    sstart.assign(nc + 1, 0);
     fill.resize(m);
-    rmax = 0.0;
+    double rlargest = 0.0;
     for (int k = 0; k < m; ++k) {
-      const double *p = &x[3 * (size_t) mem[k]];
-      fill[k] = (int) ((coord(p[2], 2) * ncell[1] + coord(p[1], 1)) * ncell[0] + coord(p[0], 0));
-      start[fill[k] + 1]++;
-      rmax = std::max(rmax, rad[mem[k]]);
+      const int i = mem[k];
+      const double *p = &x[3 * (size_t) i];
+      const int c = (int) ((coord(p[2], 2) * ncell[1] + coord(p[1], 1)) * ncell[0] + coord(p[0], 0));
+      fill[k] = c;
+      start[c + 1]++;
+      sstart[c + 1] += i < nsearch;
+      rlargest = std::max(rlargest, rad[i]);
     }
-    for (long c = 0; c < nc; ++c) start[c + 1] += start[c];
+    rmax = rlargest;
+    for (long c = 0; c < nc; ++c) {
+      start[c + 1] += start[c];
+      sstart[c + 1] += sstart[c];
+    }
     // Points in cell order, contiguous (x, y, z, radius), so that a cell's points are read
     // in one sweep.
     order.resize(m);
@@ -80,25 +89,18 @@ namespace Collide {
       for (int d = 0; d < 3; ++d) to[d] = x[3 * (size_t) i + d];
       to[3] = rad[i];
     }
-    // The searched points alone, in the same order: a filtered copy (in one sequential sweep).
-    all_searched = true;
-    for (int k = 0; k < m && all_searched; ++k) all_searched = mem[k] < nsearch;
-    sstart.resize(all_searched ? 0 : nc + 1);
+    // The searched points alone, in the same order: a filtered copy, in one sweep that writes
+    // every point and keeps the searched ones by advancing its count (one slot more, for the
+    // last write when a ghost comes last).
+    const int ns = sstart[nc];
+    all_searched = ns == m;
     if (all_searched) return;
-    int ns = 0;
-    for (int k = 0; k < m; ++k) ns += order[k] < nsearch;
-    sorder.resize(ns);
-    ssorted.resize((size_t) 4 * ns);
-    int t = 0;
-    sstart[0] = 0;
-    for (long c = 0; c < nc; ++c) {
-      for (int k = start[c]; k < start[c + 1]; ++k) {
-        if (order[k] >= nsearch) continue;
-        sorder[t] = order[k];
-        for (int d = 0; d < 4; ++d) ssorted[(size_t) 4 * t + d] = sorted[(size_t) 4 * k + d];
-        ++t;
-      }
-      sstart[c + 1] = t;
+    sorder.resize((size_t) ns + 1);
+    ssorted.resize((size_t) 4 * (ns + 1));
+    for (int k = 0, t = 0; k < m; ++k) {
+      sorder[t] = order[k];
+      for (int d = 0; d < 4; ++d) ssorted[(size_t) 4 * t + d] = sorted[(size_t) 4 * k + d];
+      t += order[k] < nsearch;
     }
   }
 
@@ -203,15 +205,22 @@ namespace Collide {
       small = Grid();
       return;
     }
-    double lo[3], hi[3], rmin = rad[0];
-    for (int d = 0; d < 3; ++d) lo[d] = hi[d] = x[d];
-    for (int i = 1; i < n; ++i) {
-      for (int d = 0; d < 3; ++d) {
-        lo[d] = std::min(lo[d], x[3 * i + d]);
-        hi[d] = std::max(hi[d], x[3 * i + d]);
-      }
+    // The bounding box, in scalars rather than arrays indexed by d (the compiler kept those
+    // in memory: a store and a reload per point and dimension).
+    double lx = x[0], ly = x[1], lz = x[2], hx = x[0], hy = x[1], hz = x[2], rmin = rad[0];
+    bool within_rmax = true;    // every radius is at most rmax (none is NaN)
+    for (int i = 0; i < n; ++i) {
+      const double *p = &x[3 * (size_t) i];
+      lx = std::min(lx, p[0]);
+      ly = std::min(ly, p[1]);
+      lz = std::min(lz, p[2]);
+      hx = std::max(hx, p[0]);
+      hy = std::max(hy, p[1]);
+      hz = std::max(hz, p[2]);
       rmin = std::min(rmin, rad[i]);
+      within_rmax &= rad[i] <= rmax;
     }
+    const double lo[3] = {lx, ly, lz}, hi[3] = {hx, hy, hz};
 
     // The small class: radii up to SMALL_SLACK times the (1 - 1/LARGE_SHARE) quantile, where
     // the largest radius is more than SPLIT_RATIO times that.  The quantile is at least the
@@ -225,7 +234,12 @@ namespace Collide {
       const double t = SMALL_SLACK * tmp[k];
       if (t > 0.0 && rmax > SPLIT_RATIO * t) tsmall = t;
     }
-    for (int i = 0; i < n; ++i) (rad[i] <= tsmall ? members : large).push_back(i);
+    if (tsmall == rmax && within_rmax) {    // one class: every point, without a test each
+      members.resize(n);
+      std::iota(members.begin(), members.end(), 0);
+    } else {
+      for (int i = 0; i < n; ++i) (rad[i] <= tsmall ? members : large).push_back(i);
+    }
     nbig = (int) large.size();
     if (nbig == 0) tsmall = rmax;
 
