@@ -53,6 +53,7 @@
 #include <cstring>
 #include <exception>
 #include <mpi.h>
+#include <new>
 
 using namespace LAMMPS_NS;
 using HSGPU::Collide::Body;
@@ -324,9 +325,11 @@ bool FixHardSphere::gather_bodies(double drift_dt)
   bool near_wall = false;
   for (int i = 0; i < nlocal; ++i) {
     if (body_of[i] < 0) continue;
-    Body &b = bodies[body_of[i]];
-    b = HSGPU::Collide::start_body(x[i], v[i], f[i], radius[i], rmass[i], tlast[i], (long) tag[i],
-                                   type[i], i, drift_dt, ftm2v);
+    // Made in place (a body made on the stack and assigned is copied 16 bytes at a time over
+    // its 8-byte stores just made, a store-forwarding stall per body).
+    Body &b = *::new (&bodies[body_of[i]])
+        Body(HSGPU::Collide::start_body(x[i], v[i], f[i], radius[i], rmass[i], tlast[i],
+                                        (long) tag[i], type[i], i, drift_dt, ftm2v));
     if (friction_on)
       for (int d = 0; d < 3; ++d) b.omega[d] = atom->omega[i][d];
     for (int fc = 0; fc < HSGPU::Collide::NFACES; ++fc)
@@ -409,14 +412,20 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
   // within its radii and two step bounds, and the step's check looks within the radii and two
   // excursions, each at most what the ghosts cover (ghost_reach()).  The ghost shell follows
   // the largest sphere; a small ghost needs only its own share of it (diameters 1 and 10).
-  double blo[3] = {1e300, 1e300, 1e300}, bhi[3] = {-1e300, -1e300, -1e300}, rown = 0.0;
+  // The bodies' box, from their search points just filled, in scalars (arrays indexed by the
+  // dimension were kept in memory: a store and a reload per body and dimension).
+  double lx = 1e300, ly = 1e300, lz = 1e300, hx = -1e300, hy = -1e300, hz = -1e300, rown = 0.0;
   for (int b = 0; b < nb; ++b) {
-    for (int d = 0; d < 3; ++d) {
-      blo[d] = std::min(blo[d], bodies[b].X0[d]);
-      bhi[d] = std::max(bhi[d], bodies[b].X0[d]);
-    }
-    rown = std::max(rown, bodies[b].radius);
+    const double *p = &spos[3 * (size_t) b];
+    lx = std::min(lx, p[0]);
+    ly = std::min(ly, p[1]);
+    lz = std::min(lz, p[2]);
+    hx = std::max(hx, p[0]);
+    hy = std::max(hy, p[1]);
+    hz = std::max(hz, p[2]);
+    rown = std::max(rown, srad[b]);
   }
+  const double blo[3] = {lx, ly, lz}, bhi[3] = {hx, hy, hz};
   const double keep = rown + 2.0 * ghost_reach();
   for (int j = nlocal; j < nall && nb > 0; ++j) {
     if (!(mask[j] & groupbit)) continue;
