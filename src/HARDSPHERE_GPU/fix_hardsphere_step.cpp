@@ -475,6 +475,7 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
   iedges.clear();
   ffedges.clear();
   bool maybe_overlap = false;
+  near_body.assign(nb, 0);
   for (size_t k = 0; k < spairs.size(); k += 2) {
     int a = spairs[k], c = spairs[k + 1];    // a < c: a is one of my bodies or a ghost
     if (sid[a] == sid[c]) continue;          // an atom and its own image
@@ -508,9 +509,14 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
     const double range = (srad[lo] + srad[hi]) + (sbound[lo] + sbound[hi]);
     const double d2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
     if (d2 > range * range) continue;
-    // Could be an overlap (the exact test below runs only if some pair is this close).
+    // Could be an overlap (the exact test below runs only if some pair is this close, and
+    // only on the pairs of bodies in such a pair).
     const double near = (srad[lo] + srad[hi]) * (1.0 + 1e-6);
-    if (d2 < near * near) maybe_overlap = true;
+    if (d2 < near * near) {
+      maybe_overlap = true;
+      near_body[bi] = 1;
+      if (bj >= 0) near_body[bj] = 1;
+    }
     // Filled in place: an edge built on the stack and copied is read back in 16-byte pieces
     // over its 4- and 8-byte stores, which stalls the copy until those stores complete.
     if (bj >= 0) {
@@ -604,11 +610,17 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
       if (bj >= 0) push_dx[(size_t) 3 * bodies[bj].owner + d] -= wj * delta * n[d];
     }
   };
+  // A pair closer than contact was found close above (the same start points and separation),
+  // so the pairs of bodies in no close pair are passed over (a dense fluid has close pairs in
+  // every step; reading both bodies of every pair cost more than the rest of the test).  The
+  // order of the pairs tested, and so of the sums in push_dx, is kept.
   if (maybe_overlap) {
     for (const Edge &e : edges)
-      pair_overlap(bodies[e.i], bodies[e.j].X0, bodies[e.j].radius, bodies[e.j].mass,
-                   (tagint) bodies[e.j].id, e.j);
+      if (near_body[e.i] && near_body[e.j])
+        pair_overlap(bodies[e.i], bodies[e.j].X0, bodies[e.j].radius, bodies[e.j].mass,
+                     (tagint) bodies[e.j].id, e.j);
     for (const ForeignEdge &fe : fedges) {
+      if (!near_body[fe.body]) continue;
       const double *g = &gdata[(size_t) NFWD * fe.ghost];
       double X0j[3];
       for (int d = 0; d < 3; ++d) X0j[d] = g[d] - g[3 + d] * drift_dt;
