@@ -3,6 +3,11 @@
    (O(n) work and memory), so that the search follows each step's own displacement budget
    rather than a cutoff fixed at setup.
 
+   Within the half stencil of its cell, each point tests only the cells that its own box
+   reaches (its radius plus the largest, plus the margin), and a point that is not searched
+   from (a ghost) only the searched points: pairs of two ghosts are never tested.  The cells
+   and the order of the pairs are those of the whole 27-cell half stencil.
+
    Mixed sizes: where a few points have radii far above the rest (diameters 1 and 10), cells as
    wide as the largest pair range would hold hundreds of small points each.  The points are
    then split in two classes: the small ones get cells sized for them, the large ones (at most
