@@ -160,6 +160,9 @@ class FixHardSphere : public Fix {
   std::vector<int> body_of;     // local atom -> body index, -1 when none
   std::vector<HSGPU::Collide::Body> bodies;
   std::vector<HSGPU::Collide::Edge> edges, iedges;
+  std::vector<HSGPU::Collide::Edge> isorted;    // build(): iedges sorted by j
+  std::vector<int> icount;                       // build(): the counting sort's offsets
+  std::vector<char> near_body;    // build(): the body is in a pair close enough to overlap
   std::vector<int> foreign_of;        // ghost - nlocal -> foreign node, -1 when none
   std::vector<tagint> foreign_tag;    // foreign node -> atom ID
   struct ForeignEdge {

@@ -53,6 +53,7 @@
 #include <cstring>
 #include <exception>
 #include <mpi.h>
+#include <new>
 
 using namespace LAMMPS_NS;
 using HSGPU::Collide::Body;
@@ -324,9 +325,11 @@ bool FixHardSphere::gather_bodies(double drift_dt)
   bool near_wall = false;
   for (int i = 0; i < nlocal; ++i) {
     if (body_of[i] < 0) continue;
-    Body &b = bodies[body_of[i]];
-    b = HSGPU::Collide::start_body(x[i], v[i], f[i], radius[i], rmass[i], tlast[i], (long) tag[i],
-                                   type[i], i, drift_dt, ftm2v);
+    // Made in place (a body made on the stack and assigned is copied 16 bytes at a time over
+    // its 8-byte stores just made, a store-forwarding stall per body).
+    Body &b = *::new (&bodies[body_of[i]])
+        Body(HSGPU::Collide::start_body(x[i], v[i], f[i], radius[i], rmass[i], tlast[i],
+                                        (long) tag[i], type[i], i, drift_dt, ftm2v));
     if (friction_on)
       for (int d = 0; d < 3; ++d) b.omega[d] = atom->omega[i][d];
     for (int fc = 0; fc < HSGPU::Collide::NFACES; ++fc)
@@ -409,14 +412,20 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
   // within its radii and two step bounds, and the step's check looks within the radii and two
   // excursions, each at most what the ghosts cover (ghost_reach()).  The ghost shell follows
   // the largest sphere; a small ghost needs only its own share of it (diameters 1 and 10).
-  double blo[3] = {1e300, 1e300, 1e300}, bhi[3] = {-1e300, -1e300, -1e300}, rown = 0.0;
+  // The bodies' box, from their search points just filled, in scalars (arrays indexed by the
+  // dimension were kept in memory: a store and a reload per body and dimension).
+  double lx = 1e300, ly = 1e300, lz = 1e300, hx = -1e300, hy = -1e300, hz = -1e300, rown = 0.0;
   for (int b = 0; b < nb; ++b) {
-    for (int d = 0; d < 3; ++d) {
-      blo[d] = std::min(blo[d], bodies[b].X0[d]);
-      bhi[d] = std::max(bhi[d], bodies[b].X0[d]);
-    }
-    rown = std::max(rown, bodies[b].radius);
+    const double *p = &spos[3 * (size_t) b];
+    lx = std::min(lx, p[0]);
+    ly = std::min(ly, p[1]);
+    lz = std::min(lz, p[2]);
+    hx = std::max(hx, p[0]);
+    hy = std::max(hy, p[1]);
+    hz = std::max(hz, p[2]);
+    rown = std::max(rown, srad[b]);
   }
+  const double blo[3] = {lx, ly, lz}, bhi[3] = {hx, hy, hz};
   const double keep = rown + 2.0 * ghost_reach();
   for (int j = nlocal; j < nall && nb > 0; ++j) {
     if (!(mask[j] & groupbit)) continue;
@@ -466,6 +475,7 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
   iedges.clear();
   ffedges.clear();
   bool maybe_overlap = false;
+  near_body.assign(nb, 0);
   for (size_t k = 0; k < spairs.size(); k += 2) {
     int a = spairs[k], c = spairs[k + 1];    // a < c: a is one of my bodies or a ghost
     if (sid[a] == sid[c]) continue;          // an atom and its own image
@@ -479,11 +489,10 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
                                                  prd, periodic, r, sh);
         const double range = (srad[lo] + srad[hi]) + (sbound[lo] + sbound[hi]);
         if (r[0] * r[0] + r[1] * r[1] + r[2] * r[2] > range * range) continue;
-        Edge e;
+        Edge &e = ffedges.emplace_back();
         e.i = snode[lo];
         e.j = snode[hi];
         for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
-        ffedges.push_back(e);
         continue;
       }
       std::swap(a, c);    // a body (or an image of one) first
@@ -500,34 +509,48 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
     const double range = (srad[lo] + srad[hi]) + (sbound[lo] + sbound[hi]);
     const double d2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
     if (d2 > range * range) continue;
-    // Could be an overlap (the exact test below runs only if some pair is this close).
+    // Could be an overlap (the exact test below runs only if some pair is this close, and
+    // only on the pairs of bodies in such a pair).
     const double near = (srad[lo] + srad[hi]) * (1.0 + 1e-6);
-    if (d2 < near * near) maybe_overlap = true;
+    if (d2 < near * near) {
+      maybe_overlap = true;
+      near_body[bi] = 1;
+      if (bj >= 0) near_body[bj] = 1;
+    }
+    // Filled in place: an edge built on the stack and copied is read back in 16-byte pieces
+    // over its 4- and 8-byte stores, which stalls the copy until those stores complete.
     if (bj >= 0) {
-      Edge e;
+      Edge &e = (c >= nb || a >= nb ? iedges : edges).emplace_back();
       e.i = swap ? bj : bi;
       e.j = swap ? bi : bj;
       for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
-      (c >= nb || a >= nb ? iedges : edges).push_back(e);
     } else {
-      ForeignEdge fe;
+      ForeignEdge &fe = fedges.emplace_back();
       fe.body = bi;
       fe.node = node;
       fe.ghost = sidx[c];
       for (int d = 0; d < 3; ++d) fe.shift[d] = swap ? -sh[d] : sh[d];
-      fedges.push_back(fe);
     }
   }
   // A pair of my atoms found through periodic images appears once per image held here: keep
   // one.  Pairs found directly appear once, and never also through an image (init() keeps
-  // periodic lengths above twice the candidate range).
+  // periodic lengths above twice the candidate range).  They are put in (i, j) order by two
+  // stable counting passes, by j and then by i (linear in the edges and bodies, where a
+  // comparison sort stalls on its unpredictable comparisons); the copies of a pair are alike
+  // (the same bodies, orientation and image shift), so the first of each is kept.
   if (!iedges.empty()) {
-    std::sort(iedges.begin(), iedges.end(),
-              [](const Edge &a, const Edge &b) { return a.i < b.i || (a.i == b.i && a.j < b.j); });
-    iedges.erase(std::unique(iedges.begin(), iedges.end(),
-                             [](const Edge &a, const Edge &b) { return a.i == b.i && a.j == b.j; }),
-                 iedges.end());
-    edges.insert(edges.end(), iedges.begin(), iedges.end());
+    auto counting_pass = [&](int Edge::*key, const std::vector<Edge> &from, std::vector<Edge> &to) {
+      icount.assign((size_t) nb + 1, 0);
+      for (const Edge &e : from) ++icount[e.*key + 1];
+      for (int b = 0; b < nb; ++b) icount[b + 1] += icount[b];
+      to.resize(from.size());
+      for (const Edge &e : from) to[icount[e.*key]++] = e;
+    };
+    counting_pass(&Edge::j, iedges, isorted);
+    counting_pass(&Edge::i, isorted, iedges);
+    for (size_t k = 0; k < iedges.size(); ++k)
+      if (k == 0 || iedges[k].i != iedges[k - 1].i || iedges[k].j != iedges[k - 1].j)
+        edges.push_back(iedges[k]);
   }
   std::sort(fedges.begin(), fedges.end(), [](const ForeignEdge &a, const ForeignEdge &b) {
     return a.body < b.body || (a.body == b.body && a.node < b.node);
@@ -587,11 +610,17 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
       if (bj >= 0) push_dx[(size_t) 3 * bodies[bj].owner + d] -= wj * delta * n[d];
     }
   };
+  // A pair closer than contact was found close above (the same start points and separation),
+  // so the pairs of bodies in no close pair are passed over (a dense fluid has close pairs in
+  // every step; reading both bodies of every pair cost more than the rest of the test).  The
+  // order of the pairs tested, and so of the sums in push_dx, is kept.
   if (maybe_overlap) {
     for (const Edge &e : edges)
-      pair_overlap(bodies[e.i], bodies[e.j].X0, bodies[e.j].radius, bodies[e.j].mass,
-                   (tagint) bodies[e.j].id, e.j);
+      if (near_body[e.i] && near_body[e.j])
+        pair_overlap(bodies[e.i], bodies[e.j].X0, bodies[e.j].radius, bodies[e.j].mass,
+                     (tagint) bodies[e.j].id, e.j);
     for (const ForeignEdge &fe : fedges) {
+      if (!near_body[fe.body]) continue;
       const double *g = &gdata[(size_t) NFWD * fe.ghost];
       double X0j[3];
       for (int d = 0; d < 3; ++d) X0j[d] = g[d] - g[3 + d] * drift_dt;

@@ -3,6 +3,11 @@
    (O(n) work and memory), so that the search follows each step's own displacement budget
    rather than a cutoff fixed at setup.
 
+   Within the half stencil of its cell, each point tests only the cells that its own box
+   reaches (its radius plus the largest, plus the margin), and a point that is not searched
+   from (a ghost) only the searched points: pairs of two ghosts are never tested.  The cells
+   and the order of the pairs are those of the whole 27-cell half stencil.
+
    Mixed sizes: where a few points have radii far above the rest (diameters 1 and 10), cells as
    wide as the largest pair range would hold hundreds of small points each.  The points are
    then split in two classes: the small ones get cells sized for them, the large ones (at most
@@ -23,7 +28,9 @@ namespace Collide {
     /// Points 0 .. n-1 at x (3 each) with radii rad; the first nsearch of them are searched
     /// from.  Appends to `pairs` every (i, j) with i < nsearch, i < j < n and
     /// |x_i - x_j| <= rad_i + rad_j + extra (plain distance: periodic images must be among
-    /// the points), each once.  rmax bounds every radius.
+    /// the points), each once.  rmax bounds every radius.  The test is
+    /// dx^2 + dy^2 + dz^2 <= ((rad_i + rad_j) + extra)^2 in double precision, the same bits
+    /// whichever point of a pair is searched from.
     void find(const double *x, const double *rad, int n, int nsearch, double rmax, double extra,
               std::vector<int> &pairs);
 
@@ -46,18 +53,36 @@ namespace Collide {
     struct Grid {
       double lo[3] = {0.0, 0.0, 0.0}, inv[3] = {1.0, 1.0, 1.0};
       double width = 0.0;
+      double rmax = 0.0;    // the largest radius among the members
+      double pad = 0.0;     // allowance for rounding in the boxes of pairs()
       long ncell[3] = {1, 1, 1};
+      int nsearch = 0;             // members below this index are searched from
+      bool all_searched = true;    // no member is at or above nsearch (no copy below)
       std::vector<int> start, order;    // order: point indices in cell order
       std::vector<double> sorted;       // x, y, z, radius per member, in cell order
-      std::vector<int> fill;
+      // The searched members alone, in the same cells and order (where some are not).
+      std::vector<int> sstart, sorder;
+      std::vector<double> ssorted;
+      std::vector<int> fill, next, hits;    // scratch of build() and pairs()
 
       long cells() const { return ncell[0] * ncell[1] * ncell[2]; }
-      /// Cells at least `width` wide (coarsened to about 2 m cells at most) over [lo, hi].
+      /// Cells at least `width` wide (coarsened to about 2 m cells at most) over [lo, hi];
+      /// members below index searched_below are searched from.
       void build(const double *x, const double *rad, const std::vector<int> &members,
-                 const double *blo, const double *bhi, double width);
-      long coord(double p, int d) const;
-      /// Pairs of members (half stencil), within rad_i + rad_j + extra.
-      void pairs(int nsearch, double extra, std::vector<int> &out) const;
+                 const double *blo, const double *bhi, double width, int searched_below);
+      /// Cell of coordinate p along d, clamped to the grid (a NaN goes to cell 0).  Defined
+      /// here to be inlined: the plugin is position-independent, and an out-of-line member
+      /// is called through the PLT (several calls per point in pairs()).
+      long coord(double p, int d) const
+      {
+        const double c = (p - lo[d]) * inv[d];
+        if (!(c > 0.0)) return 0;    // also NaN
+        if (!(c < (double) ncell[d])) return ncell[d] - 1;
+        return (long) c;
+      }
+      /// Pairs of members with at least one searched (half stencil), within
+      /// (rad_i + rad_j) + extra.
+      void pairs(double extra, std::vector<int> &out);
       /// Members in the cells overlapping [p - range, p + range].
       void box(const double *p, double range, std::vector<int> &out) const;
     };
