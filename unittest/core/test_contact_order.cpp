@@ -206,36 +206,43 @@ TEST(WindowDriver, PerBodyVirialSumsToTheTallyAndEqualsSerial)
   }
 }
 
-// One window per step with the step's own bound rule (what the fix takes for `windows 1`)
-// joins every pair that can touch within the step, so it repairs nothing where the shorter
-// windows' rule (1.5 |v|, a quarter of the fastest) repairs its one large group; both equal
-// order serial bit for bit.
+// One window per step with the step's own bound rule, or joining every candidate pair (what
+// the fix takes for `windows 1`), repairs nothing where the shorter windows' rule (1.5 |v|, a
+// quarter of the fastest) repairs its one large group; all equal order serial bit for bit.
 TEST(WindowDriver, OneWindowWithTheStepBoundsRepairsNothing)
 {
   const WindowCase wc = window_cases()[1];    // the dense periodic fluid
   Order step_rule = windows(1, STEP_BOUND_FACTOR);
   step_rule.windows.floor_fraction = STEP_FLOOR_FRACTION;
-  World ws = wc.world, wa = wc.world, wb = wc.world;
-  long repairs_step = 0, repairs_window = 0;
+  Order joined = step_rule;    // what `windows 1` takes: every candidate joined
+  joined.windows.join_all = true;
+  World ws = wc.world, wa = wc.world, wb = wc.world, wc_all = wc.world;
+  long repairs_step = 0, repairs_window = 0, repairs_all = 0;
   for (int it = 0; it < wc.steps; ++it) {
     const StepResult rs = step(ws, wc.dt, SERIAL);
     const StepResult ra = step(wa, wc.dt, step_rule);
     const StepResult rb = step(wb, wc.dt, windows(1));
+    const StepResult rc = step(wc_all, wc.dt, joined);
     repairs_step += ra.stats.repairs;
     repairs_window += rb.stats.repairs;
+    repairs_all += rc.stats.repairs;
     ASSERT_EQ(rs.tally.pair, ra.tally.pair) << "step " << it;
     ASSERT_EQ(rs.tally.pair, rb.tally.pair) << "step " << it;
+    ASSERT_EQ(rs.tally.pair, rc.tally.pair) << "step " << it;
   }
   std::printf("[ WINDOWS  ] dense fluid of %zu, one window per step, %d steps: %ld repairs with "
               "the step's bounds, %ld with the windows' (k = 1.5)\n",
               wc.world.s.size(), wc.steps, repairs_step, repairs_window);
   EXPECT_EQ(repairs_step, 0);
+  EXPECT_EQ(repairs_all, 0);
   EXPECT_GT(repairs_window, 0) << "the shorter bounds repaired nothing: nothing was tested";
   for (size_t i = 0; i < ws.s.size(); ++i)
     for (int d = 0; d < 3; ++d) {
       ASSERT_EQ(ws.s[i].x[d], wa.s[i].x[d]);
       ASSERT_EQ(ws.s[i].u[d], wa.s[i].u[d]);
       ASSERT_EQ(ws.s[i].x[d], wb.s[i].x[d]);
+      ASSERT_EQ(ws.s[i].x[d], wc_all.s[i].x[d]);
+      ASSERT_EQ(ws.s[i].u[d], wc_all.s[i].u[d]);
     }
 }
 

@@ -188,6 +188,9 @@ TEST(FixHardSphereMPI, SpanningViewAgreesWithSingleRankSerial)
 TEST(FixHardSphereMPI, FixedWindowsAgreeWithSingleRankSerial)
 {
   compare("parallel windows 3", "serial");
+  // One window joining every candidate pair: groups that span ranks as large as the
+  // connected components of the candidates.
+  compare("parallel windows 1", "serial");
 }
 
 // With pair forces (the package's all-pairs gravity on the CPU, whose sums do not depend on

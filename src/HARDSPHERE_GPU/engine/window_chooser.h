@@ -27,6 +27,11 @@ namespace Collide {
     double floor_fraction = 0.0;    // f: the floor, as a fraction of the fastest drift speed;
                                     // <= 0: the backend's own (floor_fraction_or())
     long target_group = 0;          // adaptive: largest group wanted; <= 0: max(256, N / 128)
+    // With nwindows = 1 on the host step driver's gathering path: the one window joins every
+    // candidate pair, so its groups are the connected components of the step's candidates
+    // and it needs no bound test and no repair (the step's own check covers the pairs that
+    // are not candidates).  Ignored elsewhere (the view's windows, the device).
+    bool join_all = false;
   };
 
   /// The step's own bound rule (core/trajectory.h's drift_bound(): twice the drift, at least

@@ -191,11 +191,11 @@ namespace Collide {
 
   }    // namespace
 
-  /* The window's start points (w0) of bodies[0 .. n), their bound rates and the gaps of
-     `edges` there: they depend on t0 only, so the chooser's tries of one window (several ends
-     t1) compute them once (start_cached). */
+  /* The window's start points (w0) of bodies[0 .. n), their bound rates and (gaps) the gaps
+     of `edges` there: they depend on t0 only, so the chooser's tries of one window (several
+     ends t1) compute them once (start_cached). */
   void WindowDriver::start_points(std::vector<Body> &bodies, int n, const std::vector<Edge> &edges,
-                                  double t0, const WindowSettings &s)
+                                  bool gaps, double t0, const WindowSettings &s)
   {
     if (start_cached) return;
     rate.resize(n);
@@ -208,7 +208,7 @@ namespace Collide {
     }
     egap.resize(edges.size());
     emargin.resize(edges.size());
-    for (size_t q = 0; q < edges.size(); ++q) {
+    for (size_t q = 0; gaps && q < edges.size(); ++q) {
       const Edge &e = edges[q];
       const Body &bi = bodies[e.i], &bj = bodies[e.j];
       const double s2 = bi.radius + bj.radius;
@@ -229,7 +229,8 @@ namespace Collide {
     const int nb = (int) bodies.size(), nf = (int) foreign.size();
     const double delta = t1 - t0;
     const bool new_start = !start_cached;
-    start_points(bodies, nb, edges, t0, s);
+    const bool all = s.join_all && s.nwindows == 1;
+    start_points(bodies, nb, edges, !all, t0, s);
     wdelta = delta;
     bound.resize(nb);
     for (int b = 0; b < nb; ++b) bound[b] = rate[b] * delta;
@@ -244,7 +245,7 @@ namespace Collide {
       }
       ex.to_foreign(wstate, 4, fstate);
       fgap.resize(fedges.size());
-      for (size_t q = 0; q < fedges.size(); ++q) {
+      for (size_t q = 0; !all && q < fedges.size(); ++q) {
         const ForeignEdge &fe = fedges[q];
         const double s2 = bodies[fe.body].radius + foreign[fe.node].radius;
         fgap[q] = foreign_gap(bodies[fe.body], &fstate[(size_t) 4 * fe.node], fe, foreign[fe.node],
@@ -253,8 +254,9 @@ namespace Collide {
     }
 
     wedges.clear();
-    ljoined.assign(edges.size(), 0);
-    for (size_t q = 0; q < edges.size(); ++q) {
+    ljoined.assign(edges.size(), all ? 1 : 0);
+    if (all) wedges.assign(edges.begin(), edges.end());
+    for (size_t q = 0; !all && q < edges.size(); ++q) {
       const Edge &e = edges[q];
       if (egap[q] <= bound[e.i] + bound[e.j] + emargin[q]) {
         wedges.push_back(e);
@@ -262,8 +264,9 @@ namespace Collide {
       }
     }
     fwin.clear();
-    fjoined.assign(fedges.size(), 0);
-    for (size_t q = 0; q < fedges.size(); ++q) {
+    fjoined.assign(fedges.size(), all ? 1 : 0);
+    for (size_t q = 0; all && q < fedges.size(); ++q) fwin.push_back((int) q);
+    for (size_t q = 0; !all && q < fedges.size(); ++q) {
       const ForeignEdge &fe = fedges[q];
       const double s2 = bodies[fe.body].radius + foreign[fe.node].radius;
       if (fgap[q] <= bound[fe.body] + fstate[(size_t) 4 * fe.node + 3] * delta + MARGIN * s2) {
@@ -995,7 +998,7 @@ namespace Collide {
   {
     const int nv = (int) bodies.size(), nb = nlocal_bodies;
     const double delta = t1 - t0;
-    start_points(bodies, nv, xedges, t0, s);
+    start_points(bodies, nv, xedges, true, t0, s);
     bound.resize(nv);
     for (int b = 0; b < nv; ++b) bound[b] = rate[b] * delta;
     wedges.clear();

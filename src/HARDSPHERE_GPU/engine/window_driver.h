@@ -283,7 +283,8 @@ namespace Collide {
                          double t0, double t1, Tally &tloc, Tally &tbnd, int &capped,
                          long (&acc)[5], long &largest, bool edges_made);
 
-    void start_points(std::vector<Body> &bodies, int n, const std::vector<Edge> &edges, double t0,
+    void start_points(std::vector<Body> &bodies, int n, const std::vector<Edge> &edges, bool gaps,
+                      double t0,
                       const WindowSettings &s);
     long window_edges(std::vector<Body> &bodies, const std::vector<Edge> &edges,
                       const std::vector<ForeignEdge> &fedges,
