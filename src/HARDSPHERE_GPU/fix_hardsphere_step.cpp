@@ -412,20 +412,10 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
   // within its radii and two step bounds, and the step's check looks within the radii and two
   // excursions, each at most what the ghosts cover (ghost_reach()).  The ghost shell follows
   // the largest sphere; a small ghost needs only its own share of it (diameters 1 and 10).
-  // The bodies' box, from their search points just filled, in scalars (arrays indexed by the
-  // dimension were kept in memory: a store and a reload per body and dimension).
-  double lx = 1e300, ly = 1e300, lz = 1e300, hx = -1e300, hy = -1e300, hz = -1e300, rown = 0.0;
-  for (int b = 0; b < nb; ++b) {
-    const double *p = &spos[3 * (size_t) b];
-    lx = std::min(lx, p[0]);
-    ly = std::min(ly, p[1]);
-    lz = std::min(lz, p[2]);
-    hx = std::max(hx, p[0]);
-    hy = std::max(hy, p[1]);
-    hz = std::max(hz, p[2]);
-    rown = std::max(rown, srad[b]);
-  }
-  const double blo[3] = {lx, ly, lz}, bhi[3] = {hx, hy, hz};
+  // The bodies' box, from their search points just filled.
+  double blo[3], bhi[3], rown = 0.0;
+  HSGPU::Collide::bounding_box(spos.data(), nb, blo, bhi);
+  for (int b = 0; b < nb; ++b) rown = std::max(rown, srad[b]);
   const double keep = rown + 2.0 * ghost_reach();
   for (int j = nlocal; j < nall && nb > 0; ++j) {
     if (!(mask[j] & groupbit)) continue;

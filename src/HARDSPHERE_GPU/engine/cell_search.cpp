@@ -205,22 +205,13 @@ namespace Collide {
       small = Grid();
       return;
     }
-    // The bounding box, in scalars rather than arrays indexed by d (the compiler kept those
-    // in memory: a store and a reload per point and dimension).
-    double lx = x[0], ly = x[1], lz = x[2], hx = x[0], hy = x[1], hz = x[2], rmin = rad[0];
+    double lo[3], hi[3], rmin = rad[0];
+    bounding_box(x, n, lo, hi);
     bool within_rmax = true;    // every radius is at most rmax (none is NaN)
     for (int i = 0; i < n; ++i) {
-      const double *p = &x[3 * (size_t) i];
-      lx = std::min(lx, p[0]);
-      ly = std::min(ly, p[1]);
-      lz = std::min(lz, p[2]);
-      hx = std::max(hx, p[0]);
-      hy = std::max(hy, p[1]);
-      hz = std::max(hz, p[2]);
       rmin = std::min(rmin, rad[i]);
       within_rmax &= rad[i] <= rmax;
     }
-    const double lo[3] = {lx, ly, lz}, hi[3] = {hx, hy, hz};
 
     // The small class: radii up to SMALL_SLACK times the (1 - 1/LARGE_SHARE) quantile, where
     // the largest radius is more than SPLIT_RATIO times that.  The quantile is at least the

@@ -18,10 +18,30 @@
 #ifndef HSGPU_ENGINE_CELL_SEARCH_H
 #define HSGPU_ENGINE_CELL_SEARCH_H
 
+#include <cstddef>
 #include <vector>
 
 namespace HSGPU {
 namespace Collide {
+
+  /// The bounding box of the points 0 .. n-1 at x (3 each); lo = 1e300, hi = -1e300 for
+  /// n = 0.  Kept in scalars: arrays indexed by the dimension were kept in memory by the
+  /// compiler, a store and a reload per point and dimension.
+  inline void bounding_box(const double *x, int n, double *lo, double *hi)
+  {
+    double lx = 1e300, ly = 1e300, lz = 1e300, hx = -1e300, hy = -1e300, hz = -1e300;
+    for (int i = 0; i < n; ++i) {
+      const double *p = &x[3 * (std::size_t) i];
+      lx = p[0] < lx ? p[0] : lx;
+      ly = p[1] < ly ? p[1] : ly;
+      lz = p[2] < lz ? p[2] : lz;
+      hx = p[0] > hx ? p[0] : hx;
+      hy = p[1] > hy ? p[1] : hy;
+      hz = p[2] > hz ? p[2] : hz;
+    }
+    lo[0] = lx, lo[1] = ly, lo[2] = lz;
+    hi[0] = hx, hi[1] = hy, hi[2] = hz;
+  }
 
   class CellSearch {
    public:
