@@ -68,6 +68,9 @@ constexpr double OVERLAP_TOL = 1e-9;    // pairs closer than (1 - tol) x contact
 // overlap push moves a pair to this much beyond contact (relative): a margin well above the
 // overlap criterion lets the relaxation end in a few passes rather than creep up to it.
 constexpr double PUSH_MARGIN = 1e-6;
+// How far inside a fixed boundary a push leaves an atom's centre, as a fraction of the box
+// length: well clear of the round-off that decides which side of the face an atom is on.
+constexpr double PUSH_INSET = 1e-9;
 constexpr int NSTATE = 15;    // doubles per body in the boundary exchange (3 more with friction)
 
 // Lexicographic order of overlap reports: lower atom ID first, walls (negative) first.
@@ -687,9 +690,29 @@ int FixHardSphere::overlap_pass(double drift_dt, int pass, double &moved)
   if (!overlap_push || pass >= maxpush) report_overlap(pass, any);
   double **x = atom->x;
   double m = 0.0;
+  // A push never carries an atom out through a fixed boundary (LAMMPS's 'f', with or without
+  // a wall of the fix there), where LAMMPS would lose it: its centre stops just inside the
+  // face (a wall's own push then moves it clear of the wall), and what overlap is left is
+  // pushed again in the next pass.
+  double lo[3], hi[3];
+  for (int d = 0; d < 3; ++d) {
+    const double inset = PUSH_INSET * domain->prd[d];
+    const bool p = domain->periodicity[d];
+    lo[d] = !p && domain->boundary[d][0] == 1 ? domain->boxlo[d] + inset : -HUGE_VAL;
+    hi[d] = !p && domain->boundary[d][1] == 1 ? domain->boxhi[d] - inset : HUGE_VAL;
+  }
   for (const Body &b : bodies) {
-    const double *u = &push_dx[(size_t) 3 * b.owner];
-    for (int d = 0; d < 3; ++d) x[b.owner][d] += u[d];
+    double *u = &push_dx[(size_t) 3 * b.owner];
+    for (int d = 0; d < 3; ++d) {
+      const double to = x[b.owner][d] + u[d];
+      if (to < lo[d] || to > hi[d]) {
+        const double in = to < lo[d] ? lo[d] : hi[d];
+        u[d] = in - x[b.owner][d];
+        x[b.owner][d] = in;
+      } else {
+        x[b.owner][d] = to;
+      }
+    }
     m = std::max(m, u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
   }
   allreduce(&m, &moved, 1, MPI_DOUBLE, MPI_MAX);

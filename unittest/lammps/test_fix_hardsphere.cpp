@@ -1057,6 +1057,29 @@ TEST(FixHardSphere, OverlapPushRelaxesRandomPlacement)
     EXPECT_THAT(err, HasSubstr("after 3 passes of 'overlap push'"));
     EXPECT_THAT(err, HasSubstr("overlaps left, the deepest"));
   }
+  {
+    // Atoms placed up to the fixed faces z = 0 and L, with no wall there: a push stops just
+    // inside a face instead of carrying atoms out, where LAMMPS would lose them (before, 10 of
+    // the 600 were lost).
+    std::vector<std::string> open = base;
+    for (auto &l : open)
+      if (l.rfind("create_atoms", 0) == 0) l = "create_atoms 1 random 600 20261124 box";
+    Lammps lmp;
+    lmp.commands(open);
+    EXPECT_EQ(lmp.first_error({"fix hs all hardsphere overlap push", "run 0"}), "");
+    ASSERT_EQ(lmp.natoms(), 600);
+    const auto x = lmp.gather("x", 3);
+    const double L = std::cbrt(600 * 0.5235987755982988 / 0.3);
+    double zlo = L, zhi = 0.0;
+    for (int i = 0; i < 600; ++i) {
+      zlo = std::min(zlo, x[3 * i + 2]);
+      zhi = std::max(zhi, x[3 * i + 2]);
+    }
+    EXPECT_GE(zlo, 0.0);
+    EXPECT_LT(zhi, L);
+    const double period[3] = {L, L, 0.0};
+    EXPECT_GT(hsgpu_test::closest_pair_gap(x, 1.0, period), -1e-9);
+  }
 }
 
 // A pile poured onto the floor with e = 0.5 and the default guards comes to rest and stays
