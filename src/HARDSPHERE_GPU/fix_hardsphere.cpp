@@ -502,7 +502,7 @@ void FixHardSphere::init()
     const int d = f / 2, side = f % 2;
     if (domain->periodicity[d])
       error->all(FLERR, "Fix hardsphere: wall {} is on a periodic face of the box", FACES[f]);
-    if (domain->boundary[d][side] != 1)
+    if (domain->boundary[d][side] != FIXED_FACE)
       error->all(FLERR, "Fix hardsphere: wall {} needs a fixed boundary ('f') on that face",
                  FACES[f]);
   }

@@ -59,6 +59,8 @@ class FixHardSphere : public Fix {
   double memory_usage() override;
 
  protected:
+  // LAMMPS's Domain::boundary code of a fixed ('f') face (0 periodic, 2 and 3 shrink-wrapped).
+  static constexpr int FIXED_FACE = 1;
   // --- settings -------------------------------------------------------------------------
   std::vector<double> epair;    // restitution of type pairs, (ntypes + 1)^2
   HSGPU::Collide::Walls walls;

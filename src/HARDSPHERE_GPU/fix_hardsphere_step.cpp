@@ -697,9 +697,8 @@ int FixHardSphere::overlap_pass(double drift_dt, int pass, double &moved)
   double lo[3], hi[3];
   for (int d = 0; d < 3; ++d) {
     const double inset = PUSH_INSET * domain->prd[d];
-    const bool p = domain->periodicity[d];
-    lo[d] = !p && domain->boundary[d][0] == 1 ? domain->boxlo[d] + inset : -HUGE_VAL;
-    hi[d] = !p && domain->boundary[d][1] == 1 ? domain->boxhi[d] - inset : HUGE_VAL;
+    lo[d] = domain->boundary[d][0] == FIXED_FACE ? domain->boxlo[d] + inset : -HUGE_VAL;
+    hi[d] = domain->boundary[d][1] == FIXED_FACE ? domain->boxhi[d] - inset : HUGE_VAL;
   }
   for (const Body &b : bodies) {
     double *u = &push_dx[(size_t) 3 * b.owner];
