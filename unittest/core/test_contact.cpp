@@ -316,3 +316,45 @@ TEST(WallContact, RandomCasesMatchReference)
   }
   EXPECT_GT(events, 5000);
 }
+
+// The horizons of both contact times: a contact sooner than the horizon comes out exactly as
+// without it; one later may come out as never() (and does in many cases: the early exit runs).
+TEST(ContactHorizon, SoonerContactsAreUnchangedAndLaterOnesMayBeDropped)
+{
+  std::mt19937_64 rng(2026);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  long dropped_wall = 0, kept_wall = 0, dropped_pair = 0, kept_pair = 0;
+  for (int k = 0; k < 40000; ++k) {
+    const double h = std::pow(10.0, -3.0 + 3.0 * std::fabs(u(rng)));
+    // Walls: gaps from touching to far, under and against gravity, at rest and moving.
+    const double g0 = (k % 4 == 0) ? 1e-3 * u(rng) : std::fabs(u(rng)) * std::fabs(u(rng));
+    const double g1 = (k % 5 == 0) ? 0.0 : 2.0 * u(rng);
+    const double g2 = (k % 7 == 0) ? 0.0 : 10.0 * u(rng);
+    const double wt = wall_contact_time(g0, g1, g2), wh = wall_contact_time(g0, g1, g2, h);
+    if (wt <= h) {
+      ASSERT_EQ(wh, wt) << g0 << " " << g1 << " " << g2 << " h " << h;
+      ++kept_wall;
+    } else if (wh != wt) {
+      ASSERT_EQ(wh, never()) << g0 << " " << g1 << " " << g2 << " h " << h;
+      ++dropped_wall;
+    }
+    // Pairs: centres 0.5 ... 2 apart, contact distance 1.
+    const double r[3] = {2 * u(rng), 2 * u(rng), 2 * u(rng)};
+    const double v[3] = {u(rng), u(rng), u(rng)};
+    const double pt = pair_contact_time(r, v, 1.0), ph = pair_contact_time(r, v, 1.0, 0.0, h);
+    if (pt <= h) {
+      ASSERT_EQ(ph, pt) << k << " h " << h;
+      ++kept_pair;
+    } else if (ph != pt) {
+      ASSERT_EQ(ph, never()) << k << " h " << h;
+      ++dropped_pair;
+    }
+  }
+  std::printf("[ HORIZON  ] walls: %ld contacts within the horizon kept, %ld later ones dropped; "
+              "pairs: %ld kept, %ld dropped\n",
+              kept_wall, dropped_wall, kept_pair, dropped_pair);
+  EXPECT_GT(kept_wall, 1000);
+  EXPECT_GT(dropped_wall, 1000);
+  EXPECT_GT(kept_pair, 1000);
+  EXPECT_GT(dropped_pair, 1000);
+}

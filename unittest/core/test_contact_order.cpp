@@ -131,7 +131,7 @@ TEST(EventOrder, FreeFlightResultDoesNotDependOnTimestep)
 // overlaps, nobody inside the floor.
 TEST(EventOrder, SettledPileIsStable)
 {
-  World w = random_world(216, 8, 0.5);
+  World w = random_world(216, 8, 0.5, 7);    // 216 spheres on 7^3 sites
   w.e = 0.5;
   w.ewall = 0.5;
   w.g = 10.0;
@@ -260,4 +260,59 @@ TEST(WindowDriver, SmallGroupsInADenseFluid)
               w.s.size(), largest, largest1);
   EXPECT_LT(largest, largest1);
   EXPECT_LT(largest, (long) w.s.size() / 4);
+}
+
+// The resolution's event queue (time buckets) pops events in the order earlier() gives,
+// including ties in time, events pushed below the lowest filled bucket and events beyond the
+// buckets' range, interleaved with pushes of later events as a resolution makes them.
+TEST(EventQueue, PopsInTheOrderOfEarlier)
+{
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  auto make = [&](double t) {
+    Event e{};
+    e.t = t;
+    e.k1 = 1 + (long) (u(rng) * 20);
+    e.k2 = (long) (u(rng) * 40) - 6;
+    e.index = (int) (u(rng) * 1000);
+    return e;
+  };
+  for (int trial = 0; trial < 20; ++trial) {
+    EventQueue q;
+    std::vector<Event> ref;
+    const int n = 1 + trial * 37;
+    q.reset(0.1, 0.9, n / 2 + 1);
+    for (int k = 0; k < n; ++k) {
+      // Some times repeat (ties broken by the keys), some lie outside [0.1, 0.9) (below it:
+      // into the lowest bucket; above it: into the highest).
+      const double t = (k % 5 == 0)    ? 0.5
+                       : (k % 7 == 0)  ? 0.95
+                       : (k % 11 == 0) ? 0.05
+                                       : 0.1 + 0.8 * u(rng);
+      ref.push_back(make(t));
+      q.push(ref.back());
+    }
+    double last = -1.0;
+    long popped = 0;
+    while (!q.empty()) {
+      const Event e = q.pop();
+      auto best = std::min_element(ref.begin(), ref.end(), [](const Event &a, const Event &b) {
+        return earlier(a, b);
+      });
+      ASSERT_FALSE(earlier(*best, e)) << "trial " << trial << " pop " << popped;
+      ASSERT_FALSE(earlier(e, *best)) << "trial " << trial << " pop " << popped;
+      ref.erase(best);
+      // As a resolution does: new events at or after the one just taken (some just after
+      // it, in the bucket it came from).
+      ASSERT_GE(e.t, last);
+      last = e.t;
+      if (popped++ % 3 == 0) {
+        const double t = e.t + (1.0 - e.t) * u(rng) * (popped % 2 ? 1.0 : 1e-3);
+        ref.push_back(make(t));
+        q.push(ref.back());
+      }
+    }
+    EXPECT_TRUE(ref.empty());
+    EXPECT_GT(popped, n);
+  }
 }

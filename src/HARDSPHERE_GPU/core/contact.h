@@ -78,10 +78,19 @@ namespace Contact {
                                   Real horizon = Real(never()))
   {
     Real b = dot3(r, v);
-    if (!(b < -bmin)) return Real(never());
     const Real rr = dot3(r, r);
     Real c = rr - s * s;
-    if (c < Real(0.125) * rr) {
+    // Most pairs have no contact: they recede, or (away from contact) their contact lies
+    // beyond the horizon.  Both tests are made before one branch on either (each alone is
+    // taken about half the time, unpredictably; the two together rarely fail).  The contact
+    // time c / (-b + sqrt(b^2 - v.v c)) is at least c / (-2 b): where that lies beyond the
+    // horizon (with a margin far above the round-off of either expression) the square root
+    // and the division are not needed.
+    const bool near = c < Real(0.125) * rr;
+    const bool receding = !(b < -bmin);
+    const bool beyond = c > Real(2) * (-b) * horizon * Real(1 + HORIZON_MARGIN);
+    if (int(receding) | (int(!near) & int(beyond))) return Real(never());
+    if (near) {
       // Near contact r.r - s^2 and r.v are small differences of large terms: recompute both
       // accurately, so that the contact time keeps its relative accuracy however small it is
       // (and its sign decides touching versus overlapping correctly).
@@ -90,9 +99,6 @@ namespace Contact {
       if (!(b < -bmin)) return Real(never());
     }
     if (c <= Real(0)) return Real(0);
-    // The contact time c / (-b + sqrt(b^2 - v.v c)) is at least c / (-2 b): where that lies
-    // beyond the horizon (with a margin far above the round-off of either expression) the
-    // square root and the division are not needed.
     if (c > Real(2) * (-b) * horizon * Real(1 + HORIZON_MARGIN)) return Real(never());
     const Real disc = b * b - dot3(v, v) * c;
     if (disc < Real(0)) return Real(never());
@@ -102,9 +108,22 @@ namespace Contact {
   /// Earliest t >= 0 at which the gap g(t) = g0 + g1 t + g2 t^2 / 2 is <= 0 while decreasing
   /// (the sphere reaches the wall, or is inside it and moving further in); never() if none.
   /// A sphere inside the wall but moving out gets its event when it turns back, if it does.
-  template <class Real> HSGPU_HD Real wall_contact_time(Real g0, Real g1, Real g2)
+  /// horizon: a contact later than this may be reported as never() (it is either way when
+  /// horizon is never()); one sooner is returned exactly as without it.
+  template <class Real>
+  HSGPU_HD Real wall_contact_time(Real g0, Real g1, Real g2, Real horizon = Real(never()))
   {
     if (g0 <= Real(0) && g1 < Real(0)) return Real(0);
+    // Within the horizon h the gap closes by at most M = max(-g1, 0) h + max(-g2, 0) h^2 / 2.
+    // Where g0 exceeds M with a margin, the root lies beyond h by at least HORIZON_MARGIN h / 2
+    // (the gap closes no faster than max(-g1, 0) + max(-g2, 0) h up to h), far above its
+    // round-off: no square root or division is needed.  (Each body's walls are tested after
+    // each of its events, and most bodies are far from every wall.)
+    if (horizon != Real(never()) && g0 > Real(0)) {
+      const Real closing = (g1 < Real(0) ? -g1 : Real(0)) * horizon +
+                           Real(0.5) * (g2 < Real(0) ? -g2 : Real(0)) * horizon * horizon;
+      if (g0 > closing * Real(1 + HORIZON_MARGIN)) return Real(never());
+    }
     if (g2 == Real(0)) {
       if (g1 < Real(0)) return g0 / (-g1);
       return Real(never());

@@ -79,9 +79,12 @@ namespace Collide {
   }
 
   /// Adjacency of edges over n bodies (CSR): the edges of body b are
-  /// adj[adj_start[b] .. adj_start[b + 1]), in increasing edge index.  fill is scratch.
+  /// adj[adj_start[b] .. adj_start[b + 1]): first those with b as their body i, then those with
+  /// b as body j, each part in increasing edge index.  Where split is given, (*split)[b] is
+  /// where body b's second part begins.  fill is scratch.
   inline void edge_adjacency(int n, const Edge *edges, int nedges, std::vector<int> &adj_start,
-                             std::vector<int> &adj, std::vector<int> &fill)
+                             std::vector<int> &adj, std::vector<int> &fill,
+                             std::vector<int> *split = nullptr)
   {
     adj_start.assign(n + 1, 0);
     for (int q = 0; q < nedges; ++q) {
@@ -91,10 +94,9 @@ namespace Collide {
     for (int b = 0; b < n; ++b) adj_start[b + 1] += adj_start[b];
     adj.resize(adj_start[n]);
     fill.assign(adj_start.begin(), adj_start.end() - 1);
-    for (int q = 0; q < nedges; ++q) {
-      adj[fill[edges[q].i]++] = q;
-      adj[fill[edges[q].j]++] = q;
-    }
+    for (int q = 0; q < nedges; ++q) adj[fill[edges[q].i]++] = q;
+    if (split) split->assign(fill.begin(), fill.end());
+    for (int q = 0; q < nedges; ++q) adj[fill[edges[q].j]++] = q;
   }
 
   /// Disjoint sets with path halving; the representative is the smallest index of a set.
@@ -123,6 +125,70 @@ namespace Collide {
       else
         parent[a] = b;
     }
+  };
+
+  /// The candidate events of one group's resolution, in time buckets over [lo, hi): a push
+  /// appends to its bucket's list, a pop takes the earliest event (by earlier()) of the lowest
+  /// non-empty bucket.  A bucket's index never decreases with the time, so that event is the
+  /// earliest of all; an event pushed below the lowest non-empty bucket (none is, as events
+  /// come in time order) joins that bucket, which is searched whole.  With about two events
+  /// per bucket a pop reads a few events; a binary heap made a dozen comparisons per pop that
+  /// went either way unpredictably.
+  class EventQueue {
+   public:
+    /// Empties the queue and sets nbuckets (>= 1) buckets over [lo, hi).
+    void reset(double lo, double hi, int nbuckets)
+    {
+      nb = nbuckets;
+      t_lo = lo;
+      scale = hi > lo ? nb / (hi - lo) : 0.0;
+      head.assign(nb, -1);
+      pool.clear();
+      next.clear();
+      free_slot = -1;
+      cur = 0;
+      count = 0;
+    }
+    bool empty() const { return count == 0; }
+    void push(const Event &e)
+    {
+      const double f = (e.t - t_lo) * scale;
+      const int k = !(f >= cur) ? cur : f >= nb ? nb - 1 : (int) f;
+      int slot = free_slot;
+      if (slot >= 0) {
+        free_slot = next[slot];
+        pool[slot] = e;
+      } else {
+        slot = (int) pool.size();
+        pool.push_back(e);
+        next.push_back(-1);
+      }
+      next[slot] = head[k];
+      head[k] = slot;
+      ++count;
+    }
+    /// The earliest event, removed (the queue must not be empty).
+    Event pop()
+    {
+      while (head[cur] < 0) ++cur;
+      int best = head[cur], best_prev = -1;
+      for (int prev = best, q = next[best]; q >= 0; prev = q, q = next[q])
+        if (earlier(pool[q], pool[best])) {
+          best = q;
+          best_prev = prev;
+        }
+      (best_prev < 0 ? head[cur] : next[best_prev]) = next[best];
+      next[best] = free_slot;
+      free_slot = best;
+      --count;
+      return pool[best];
+    }
+
+   private:
+    std::vector<Event> pool;
+    std::vector<int> next, head;
+    double t_lo = 0.0, scale = 0.0;
+    int nb = 1, cur = 0, free_slot = -1, count = 0;
   };
 
   class Resolver {
@@ -221,13 +287,15 @@ namespace Collide {
     long max_component_events = 0;
 
    private:
-    std::vector<int> adj_start, adj, comp_start, comp_members, fill, touched;
-    std::vector<Event> heap, best;
+    std::vector<int> adj_start, adj, adj_split, comp_start, comp_members, fill, touched;
+    std::vector<Event> pending, best;
+    EventQueue queue;
+    double t_cut = 0.0;    // events at or after this time are not queued
     UnionFind uf;
 
     void build_adjacency(int n, const Edge *edges, int nedges)
     {
-      edge_adjacency(n, edges, nedges, adj_start, adj, fill);
+      edge_adjacency(n, edges, nedges, adj_start, adj, fill, &adj_split);
     }
 
     Event best_event(const Body *bodies, const Edge *edges, const Params &p, int b) const
@@ -261,13 +329,10 @@ namespace Collide {
       }
     }
 
-    static bool later(const Event &a, const Event &b) { return earlier(b, a); }
-
     void push(const Event &ev)
     {
-      if (ev.t == Contact::never()) return;
-      heap.push_back(ev);
-      std::push_heap(heap.begin(), heap.end(), later);
+      if (!(ev.t < t_cut)) return;    // also never()
+      queue.push(ev);
     }
 
     void push_body(const Body *bodies, const Edge *edges, const Params &p, int b)
@@ -280,20 +345,31 @@ namespace Collide {
     long resolve_one(Body *bodies, const Edge *edges, const Params &p, Tally &tally,
                      const int *members, int nmembers, double t_end, double *body_virial)
     {
-      heap.clear();
+      // Events at or after t_end wait for a later window: they are never queued (the loop
+      // below ends when no current event before t_end is left, as it would on reaching
+      // the first current one after it).
+      t_cut = t_end < p.dt ? t_end : p.dt;
+      pending.clear();
       for (int k = 0; k < nmembers; ++k) {
         const int b = members[k];
-        push(wall_event(bodies, p, b));
-        for (int q = adj_start[b]; q < adj_start[b + 1]; ++q)
-          if (edges[adj[q]].i == b) push(pair_event(bodies, edges, p, adj[q]));
+        const Event w = wall_event(bodies, p, b);
+        if (w.t < t_cut) pending.push_back(w);
+        // Each edge once: from its body i (the first part of b's edges; no test per edge,
+        // which went either way unpredictably).
+        for (int q = adj_start[b]; q < adj_split[b]; ++q) {
+          const Event e = pair_event(bodies, edges, p, adj[q]);
+          if (e.t < t_cut) pending.push_back(e);
+        }
       }
+      // Buckets from the earliest candidate to the cut, about two events each.
+      double lo = t_cut;
+      for (const Event &e : pending) lo = e.t < lo ? e.t : lo;
+      queue.reset(lo, t_cut, (int) (pending.size() / 2) + 1);
+      for (const Event &e : pending) queue.push(e);
       long count = 0;
-      while (!heap.empty()) {
-        std::pop_heap(heap.begin(), heap.end(), later);
-        const Event ev = heap.back();
-        heap.pop_back();
+      while (!queue.empty()) {
+        const Event ev = queue.pop();
         if (!is_current(bodies, edges, ev)) continue;
-        if (!(ev.t < t_end)) break;    // the earliest current event: the rest wait too
         if (tally.events >= p.maxevents) {
           tally.capped = 1;
           break;

@@ -226,10 +226,6 @@ namespace Collide {
       r[d] = (bi.x[d] + bi.v[d] * hi) - (bj.x[d] + bj.v[d] * hj) - e.shift[d];
       v[d] = bi.v[d] - bj.v[d];
     }
-    // A receding pair (r.v >= 0) has no event whatever the dead zone below: most candidate
-    // pairs, told apart before the zone's speed sum.  (pair_contact_time() forms r.v again,
-    // the same way, so this changes no result.)
-    if (!(Contact::dot3(r, v) < 0.0)) return Contact::never();
     // Round-off dead zone: a normal relative velocity below what rounding the two velocities
     // can produce is no approach (it would otherwise let a resting body and a partner trade
     // round-off forever).  The overlap this can leave is that speed times dt.
@@ -257,7 +253,7 @@ namespace Collide {
       const double p = b.x[d] + bow(b, d, tr, dt);
       const double u = b.v[d] + b.a[d] * (tr - 0.5 * dt);
       const double g0 = s * (p - w.pos[f]) - b.radius;
-      const double tau = Contact::wall_contact_time(g0, s * u, s * b.a[d]);
+      const double tau = Contact::wall_contact_time(g0, s * u, s * b.a[d], dt - tr);
       if (tau == Contact::never()) continue;
       const double t = tr + tau;
       if (t < dt && t < best) {
@@ -277,7 +273,9 @@ namespace Collide {
     for (int d = 0; d < 3; ++d) {
       const double dx = xi[d] - xj[d];
       double s = 0.0;
-      if (periodic[d]) s = nearbyint(dx / prd[d]) * prd[d];
+      // Within a quarter period dx / prd rounds to a zero of dx's sign, which dx * 0 is: the
+      // same bits without the division (most pairs are far closer than half a period).
+      if (periodic[d]) s = fabs(dx) <= 0.25 * prd[d] ? dx * 0.0 : nearbyint(dx / prd[d]) * prd[d];
       shift[d] = s;
       r[d] = dx - s;
     }

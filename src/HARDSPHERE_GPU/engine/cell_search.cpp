@@ -25,6 +25,11 @@ namespace Collide {
     // 1e-16 relative); this is far above that and far below any pair range.
     constexpr double ROUNDING = 1e-12;
 
+    // Cells are this many times narrower along x than the longest pair range: a point's rows
+    // (contiguous runs of cells along x) then end closer to its own box, with fewer points
+    // tested, and there are no more rows than with cubic cells.
+    constexpr int X_SPLIT = 4;
+
   }    // namespace
 
   void CellSearch::Grid::build(const double *x, const double *rad, const std::vector<int> &mem,
@@ -32,9 +37,10 @@ namespace Collide {
   {
     const int m = (int) mem.size();
     nsearch = searched_below;
-    // Cells at least as wide as the longest pair range, so that the 27 cells around a point's
-    // cell hold all its partners; at most about 2 m cells (a dilute gas in a large box gets
-    // wider cells rather than an empty grid).
+    // Cells at least as wide as the longest pair range along y and z (X_SPLIT times narrower
+    // along x), so that a point's partners lie in the rows of the cells next to its own; at
+    // most about 2 m cells (a dilute gas in a large box gets wider cells rather than an empty
+    // grid).
     if (!(w > 0.0)) w = 1.0;
     double len[3], span = w;
     for (int d = 0; d < 3; ++d) {
@@ -46,7 +52,7 @@ namespace Collide {
     for (;;) {
       double total = 1.0;
       for (int d = 0; d < 3; ++d) {
-        ncell[d] = std::max(1L, (long) std::floor(len[d] / w));
+        ncell[d] = std::max(1L, (long) std::floor(len[d] / (d == 0 ? w / X_SPLIT : w)));
         total *= (double) ncell[d];
       }
       if (total <= limit) break;

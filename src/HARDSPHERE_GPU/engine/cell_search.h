@@ -5,8 +5,9 @@
 
    Within the half stencil of its cell, each point tests only the cells that its own box
    reaches (its radius plus the largest, plus the margin), and a point that is not searched
-   from (a ghost) only the searched points: pairs of two ghosts are never tested.  The cells
-   and the order of the pairs are those of the whole 27-cell half stencil.
+   from (a ghost) only the searched points: pairs of two ghosts are never tested.  Cells are
+   as wide as the longest pair range along y and z and a quarter of that along x: a point's
+   cells form a few rows along x (contiguous in memory) that end close to its own box.
 
    Mixed sizes: where a few points have radii far above the rest (diameters 1 and 10), cells as
    wide as the largest pair range would hold hundreds of small points each.  The points are
@@ -61,8 +62,8 @@ namespace Collide {
     /// Width of the last call's cells of the small class: every point within this distance of
     /// point i is among neighbors(i).
     double cell_width() const { return small.width; }
-    /// Appends to `out` the points of the last call in the 27 cells around point i's (in each
-    /// class's cells).
+    /// Appends to `out` the points of the last call in the cells within one cell width of
+    /// point i (in each class's cells).
     void neighbors(int i, std::vector<int> &out) const;
     /// Appends to `out` the points of the last call in the cells that overlap the cube of
     /// half-edge `range` around point i: every point within `range` of it, and others.
@@ -86,7 +87,8 @@ namespace Collide {
       std::vector<int> fill, next, hits;    // scratch of build() and pairs()
 
       long cells() const { return ncell[0] * ncell[1] * ncell[2]; }
-      /// Cells at least `width` wide (coarsened to about 2 m cells at most) over [lo, hi];
+      /// Cells at least `width` wide along y and z, a quarter of that along x (coarsened to
+      /// about 2 m cells at most) over [lo, hi];
       /// members below index searched_below are searched from.
       void build(const double *x, const double *rad, const std::vector<int> &members,
                  const double *blo, const double *bhi, double width, int searched_below);
