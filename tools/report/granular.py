@@ -19,6 +19,7 @@ coeff_restitution` with the hooke normal model computes the same damping itself
 """
 import csv
 import json
+import statistics
 import math
 import os
 import re
@@ -27,6 +28,7 @@ import sys
 E = 0.9                     # restitution of every scene with dissipation
 G = 1.0                     # gravity of the bounce and the column
 SCENE = "examples/benchmarks/in.column"
+COLUMN_REPEATS = 3            # full mode: runs per column setting, the median wall time
 FIX_LINE = "fix             hs all hardsphere restitution 0.9 wall zlo 0.9"
 THERMO_LINE = "thermo_style    custom step time ke c_zav c_zmax f_hs[2]"
 RUN_LINE = "run             $(floor(v_T/v_dt))"
@@ -225,20 +227,23 @@ def column_runs(plan, quick):
               ("guards off, reach 0.15", "tc 1e-7 reach 0.15", [0.005, 0.01, 0.02, 0.05, 0.1]),
               ("default guards", "", [0.001, 0.005, 0.01, 0.02, 0.05, 0.1]),
               ("default guards, reach 0.15", "reach 0.15", [0.01, 0.02, 0.05, 0.1]),
-              ("guards off, windows 1", "tc 1e-7 windows 1", [0.02, 0.05, 0.1]),
-              ("default guards, windows 1", "windows 1", [0.02, 0.05, 0.1]),
+              ("guards off, windows 1", "tc 1e-7 windows 1", [0.02, 0.04, 0.05, 0.0625, 0.1]),
+              ("default guards, windows 1", "windows 1", [0.02, 0.04, 0.05, 0.0625, 0.1]),
               ("tc/slow no", "tc/slow no", [0.01])]
         gran = {"gran/hooke": [(kn, [10, 20, 40, 80]) for kn in (1e4, 3e4, 1e5, 3e5, 1e6, 3e6)]
                 + [(1e7, [10, 20])],
                 "granular": [(1e5, [20]), (1e6, [20])]}
         count = [1e5, 1e6]
         seeds = [1111, 2222, 3333]
+    # full mode: every timed run of the column three times, its wall time the median (the
+    # goal of issue 11 compares two of them)
+    repeats = 1 if quick else COLUMN_REPEATS
     for setting, extra, dts in hs:
         for dt in dts:
             rid = f"column_hs_{re.sub(r'[^A-Za-z0-9.]', '', extra) or 'default'}_dt{dt:g}"
             plan.add(rid, "column", "fix hardsphere", setting, dt, hs_input(extra),
                      ["-var", "dt", repr(dt), "-var", "T", "1.0"], extra=extra,
-                     steps=math.floor(1.0 / dt))
+                     steps=math.floor(1.0 / dt), repeats=repeats)
     for method, grid in gran.items():
         inp = write_copy(plan, "column_" + method.replace("/", "") + ".in", lines,
                          GRAN_FIX[method], thermo=GRAN_THERMO)
@@ -248,7 +253,7 @@ def column_runs(plan, quick):
                 rid = f"column_{method.replace('/', '')}_kn{kn:g}_dt{dt:g}"
                 plan.add(rid, "column", method, f"k_n {kn:g}", dt, inp,
                          ["-var", "dt", repr(dt), "-var", "T", "1.0"] + gran_vars(kn),
-                         kn=kn, tc=tc, steps=round(1.0 / dt))
+                         kn=kn, tc=tc, steps=round(1.0 / dt), repeats=repeats)
     if count:
         # collision count of the soft spheres: the number of pairs in contact, sampled about
         # 8 times per contact time, integrated over t = 0 ... 1 and divided by t_c (a binary
@@ -411,6 +416,13 @@ def cmd_plan(mode, work, root, scenes):
         json.dump(dict(mode=mode, scenes=chosen, runs=plan.runs), f, indent=1)
     for r in plan.runs:
         print(f"{r['id']}\t{r['input']}\t{' '.join(r['args'])}")
+    # repeated runs (timing only), one pass over them per repeat after all the others, so that
+    # the repeats of one setting are minutes apart and a burst of load on the machine falls
+    # on one of them
+    for k in range(2, 1 + max([r.get("repeats", 1) for r in plan.runs] + [1])):
+        for r in plan.runs:
+            if r.get("repeats", 1) >= k:
+                print(f"{r['id']}.rep{k}\t{r['input']}\t{' '.join(r['args'])}")
 
 
 # ------------------------------------------------------------------------------------------
@@ -687,6 +699,14 @@ class Analysis:
             r["log_data"] = parse_log(r)
             r["wall"] = r["log_data"]["wall"]
             r["cpu_time"] = r["log_data"]["cpu_time"]
+            # repeated runs: the median wall and CPU times (the physics is the first run's; a
+            # repeat gives the same numbers)
+            reps = [r["log_data"]] + [parse_log(dict(r, id=f"{r['id']}.rep{k}",
+                                                     log=r["log"][:-4] + f".rep{k}.log"))
+                                      for k in range(2, r.get("repeats", 1) + 1)]
+            r["walls"] = [x["wall"] for x in reps]
+            r["wall"] = statistics.median(r["walls"])
+            r["cpu_time"] = statistics.median(x["cpu_time"] for x in reps)
             r["cpu_use"] = r["cpu_time"] / r["wall"] if r["wall"] > 0 else 1.0
         self.body = []
 
@@ -876,7 +896,10 @@ class Analysis:
                  f"kinetic energy per atom at t = 1 KE_exact = {ke_ref:.8g} and {coll_ref} pair "
                  f"collisions (issue 11 quotes 1.1476711); the guards-off runs at all "
                  f"{len(exact)} timesteps agree with it to {efmt(spread)}.  Error: (KE - KE_exact) / "
-                 "KE_exact.  Wall time: LAMMPS's Loop time on one MPI rank, one thread.", "")
+                 "KE_exact.  Wall time: LAMMPS's Loop time on one MPI rank, one thread"
+                 + (f"; in full mode the median of {COLUMN_REPEATS} runs of each setting, made in "
+                    f"{COLUMN_REPEATS} passes over all of them (minutes apart)"
+                    if any(r.get("repeats", 1) > 1 for r in rows) else "") + ".", "")
         hs_rows = [r for r in rows if r["method"] == "fix hardsphere"]
         self.out("### fix hardsphere", "",
                  md_table(["setting", "dt", "steps", "wall time (s)", "CPU use", "KE at t = 1", "KE error",

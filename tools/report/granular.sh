@@ -11,8 +11,9 @@
 # generated inputs go to $HSGPU_REPORT_BUILD/report/granular/.
 # quick: the pair, the bounce and the column (a few settings per method): 20 s on the 2-core
 # development machine; full: all five scenes and all settings, the column with three more
-# velocity seeds: about 35 minutes there, shared with other jobs (the settled column's fix
-# hardsphere runs, about 6 events per sphere per step, take most of it).
+# velocity seeds and each of its timed settings run three times (the median wall time; about
+# 3 minutes of the total): about 20 minutes there (the settled column's fix hardsphere runs,
+# about 6 events per sphere per step, take most of it).
 # HSGPU_REPORT_GRANULAR_SCENES=pair,bounce,column,settled,fluid,repose picks scenes (for
 # development; repose alone: 25 s).
 # A LAMMPS error, a missing result or a value that is not finite makes it exit non-zero before

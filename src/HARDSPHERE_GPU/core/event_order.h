@@ -13,7 +13,7 @@
      O(N) per event.
    - components: the edges (pairs that can touch within the step) split the bodies into
      connected components that cannot influence each other within the step; each component is
-     resolved by itself with its own event queue: O((N + events) log) per step.
+     resolved by itself with its own event queue (time buckets): O(N + events) per step.
 
    Where the caller gives body_virial (6 doubles per body, indexed like the bodies), every
    event adds its per-atom virial there (collision_step.h); nullptr: not tallied.
