@@ -182,8 +182,9 @@ else:
 say("Large dense systems: the default order resolves each step in time windows of small groups")
 say("(`f_ID[7]` the largest); `gpu yes` resolves them on a CUDA device, bitwise the same")
 say("([bench_collisions.md](../bench_collisions.md)).  On one MPI rank without a GPU nothing runs")
-say("side by side, and `windows 1` (the whole step as one window joining every candidate pair) is")
-say("the faster setting, the same bits ([fix_hardsphere.md](../fix_hardsphere.md#order-of-events)).")
+say("side by side, and up to some 1e5 atoms `windows 1` (the whole step as one window joining every")
+say("candidate pair) is the faster setting, the same bits; at a million atoms `auto` is")
+say("([fix_hardsphere.md](../fix_hardsphere.md#order-of-events)).")
 say("")
 
 # --- self-gravitating cloud --------------------------------------------------------------------
