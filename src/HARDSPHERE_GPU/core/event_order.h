@@ -127,13 +127,20 @@ namespace Collide {
     }
   };
 
-  /// The candidate events of one group's resolution, in time buckets over [lo, hi): a push
-  /// appends to its bucket's list, a pop takes the earliest event (by earlier()) of the lowest
-  /// non-empty bucket.  A bucket's index never decreases with the time, so that event is the
-  /// earliest of all; an event pushed below the lowest non-empty bucket (none is, as events
-  /// come in time order) joins that bucket, which is searched whole.  With about two events
-  /// per bucket a pop reads a few events; a binary heap made a dozen comparisons per pop that
-  /// went either way unpredictably.
+  /// The heap order of events: the earliest on top.
+  struct LaterEvent {
+    bool operator()(const Event &a, const Event &b) const { return earlier(b, a); }
+  };
+
+  /// The candidate events of one group's resolution, in time buckets over [lo, hi).  A push
+  /// appends to its bucket's list; the lowest non-empty bucket is moved into a binary heap (the
+  /// front), from which the pops come, and the pushes that fall in it go there too.  A
+  /// bucket's index never decreases with the time, so the front's earliest event is the
+  /// earliest of all; an event pushed below the front's bucket (none is, as events come in
+  /// time order) joins the front.  With about two events per bucket the front is tiny (a
+  /// binary heap of all events made a dozen comparisons per pop that went either way
+  /// unpredictably), and a burst of events at one time (touching spheres at a step's start)
+  /// costs a heap's log, not a scan, per pop.
   class EventQueue {
    public:
     /// Empties the queue and sets nbuckets (>= 1) buckets over [lo, hi).
@@ -145,15 +152,23 @@ namespace Collide {
       head.assign(nb, -1);
       pool.clear();
       next.clear();
+      front.clear();
       free_slot = -1;
       cur = 0;
+      front_bucket = -1;
       count = 0;
     }
     bool empty() const { return count == 0; }
     void push(const Event &e)
     {
+      ++count;
       const double f = (e.t - t_lo) * scale;
       const int k = !(f >= cur) ? cur : f >= nb ? nb - 1 : (int) f;
+      if (k == front_bucket) {
+        front.push_back(e);
+        std::push_heap(front.begin(), front.end(), LaterEvent());
+        return;
+      }
       int slot = free_slot;
       if (slot >= 0) {
         free_slot = next[slot];
@@ -165,30 +180,37 @@ namespace Collide {
       }
       next[slot] = head[k];
       head[k] = slot;
-      ++count;
     }
     /// The earliest event, removed (the queue must not be empty).
     Event pop()
     {
-      while (head[cur] < 0) ++cur;
-      int best = head[cur], best_prev = -1;
-      for (int prev = best, q = next[best]; q >= 0; prev = q, q = next[q])
-        if (earlier(pool[q], pool[best])) {
-          best = q;
-          best_prev = prev;
+      if (front.empty()) {
+        // The front's bucket is used up (pushes into it went to the front): the next
+        // non-empty one becomes the front.
+        if (front_bucket == cur) ++cur;
+        while (head[cur] < 0) ++cur;
+        for (int q = head[cur], nq; q >= 0; q = nq) {
+          nq = next[q];
+          front.push_back(pool[q]);
+          next[q] = free_slot;
+          free_slot = q;
         }
-      (best_prev < 0 ? head[cur] : next[best_prev]) = next[best];
-      next[best] = free_slot;
-      free_slot = best;
+        head[cur] = -1;
+        front_bucket = cur;
+        std::make_heap(front.begin(), front.end(), LaterEvent());
+      }
+      std::pop_heap(front.begin(), front.end(), LaterEvent());
+      const Event e = front.back();
+      front.pop_back();
       --count;
-      return pool[best];
+      return e;
     }
 
    private:
-    std::vector<Event> pool;
+    std::vector<Event> pool, front;
     std::vector<int> next, head;
     double t_lo = 0.0, scale = 0.0;
-    int nb = 1, cur = 0, free_slot = -1, count = 0;
+    int nb = 1, cur = 0, front_bucket = -1, free_slot = -1, count = 0;
   };
 
   class Resolver {
