@@ -26,4 +26,18 @@ dir=${HSGPU_REPORT_DIR:?}
     esac
     echo "| [$title]($s.md) | $what | $made, $mode |"
   done
+  # pages made on another machine (a folder of their own with a README that says how)
+  for sub in "$dir"/*/; do
+    [ -f "$sub/README.md" ] || continue
+    name=$(basename "$sub")
+    for s in seed granular gravity pick; do
+      page=$sub/$s.md
+      [ -f "$page" ] || continue
+      title=$(sed -n '1s/^# //p' "$page")
+      made=$(grep -m1 -o 'on [0-9-]* [0-9:]* UTC' "$page" | sed 's/^on //')
+      mode=$(grep -m1 -o '([a-z]* mode)' "$page" | tr -d '()')
+      gpu=$(grep -m1 -o 'GPU: [^;]*' "$page" | sed 's/^GPU: //')
+      echo "| [$title]($name/$s.md) | the same section on $gpu ([how it was made]($name/README.md)) | $made, $mode |"
+    done
+  done
 } > "$dir/README.md"
