@@ -1,8 +1,19 @@
 #!/usr/bin/env bash
 # Writes $HSGPU_REPORT_DIR/README.md: the report's pages, each with its title and the line that
-# says when and how it was made.
+# says when and how it was made; then the pages made on another machine (a folder of their own
+# with a README that says how).
 set -euo pipefail
 dir=${HSGPU_REPORT_DIR:?}
+
+# row <page path relative to $dir> <what it measures>
+row() {
+  local page=$dir/$1 title made mode
+  title=$(sed -n '1s/^# //p' "$page")
+  made=$(grep -m1 -o 'on [0-9-]* [0-9:]* UTC' "$page" | sed 's/^on //')
+  mode=$(grep -m1 -o '([a-z]* mode)' "$page" | tr -d '()')
+  echo "| [$title]($1) | $2 | $made, $mode |"
+}
+
 {
   echo "# Speed against error: the report"
   echo
@@ -13,31 +24,22 @@ dir=${HSGPU_REPORT_DIR:?}
   echo "| page | what it measures | made |"
   echo "|---|---|---|"
   for s in seed granular gravity pick; do
-    page=$dir/$s.md
-    [ -f "$page" ] || continue
-    title=$(sed -n '1s/^# //p' "$page")
-    made=$(grep -m1 -o 'on [0-9-]* [0-9:]* UTC' "$page" | sed 's/^on //')
-    mode=$(grep -m1 -o '([a-z]* mode)' "$page" | tr -d '()')
+    [ -f "$dir/$s.md" ] || continue
     case $s in
       seed) what="the seed paper's benchmark, whole: ms per step against N, CPU and GPU" ;;
       granular) what="fix hardsphere against LAMMPS's GRANULAR styles: error against wall time" ;;
       gravity) what="pair_style gravity: force error against time per step, per precision" ;;
       pick) what="what to pick, per kind of scene" ;;
     esac
-    echo "| [$title]($s.md) | $what | $made, $mode |"
+    row "$s.md" "$what"
   done
-  # pages made on another machine (a folder of their own with a README that says how)
   for sub in "$dir"/*/; do
     [ -f "$sub/README.md" ] || continue
     name=$(basename "$sub")
     for s in seed granular gravity pick; do
-      page=$sub/$s.md
-      [ -f "$page" ] || continue
-      title=$(sed -n '1s/^# //p' "$page")
-      made=$(grep -m1 -o 'on [0-9-]* [0-9:]* UTC' "$page" | sed 's/^on //')
-      mode=$(grep -m1 -o '([a-z]* mode)' "$page" | tr -d '()')
-      gpu=$(grep -m1 -o 'GPU: [^;]*' "$page" | sed 's/^GPU: //')
-      echo "| [$title]($name/$s.md) | the same section on $gpu ([how it was made]($name/README.md)) | $made, $mode |"
+      [ -f "$sub/$s.md" ] || continue
+      gpu=$(grep -m1 -o 'GPU: [^;]*' "$sub/$s.md" | sed 's/^GPU: //')
+      row "$name/$s.md" "the same section on $gpu ([how it was made]($name/README.md))"
     done
   done
 } > "$dir/README.md"
