@@ -36,6 +36,14 @@ namespace Contact {
   /// contact time in float and in double (some ulps), far below any use of the horizon.
   constexpr double HORIZON_MARGIN = 1e-6;
 
+  /// Whether a contact with r.r - s^2 = c and r.v = b < 0 lies beyond the horizon for certain:
+  /// its time c / (-b + sqrt(b^2 - v.v c)) is at least c / (-2 b), and the margin is far above
+  /// the round-off of either expression.
+  template <class Real> HSGPU_HD bool beyond_horizon(Real c, Real b, Real horizon)
+  {
+    return c > Real(2) * (-b) * horizon * Real(1 + HORIZON_MARGIN);
+  }
+
   template <class Real> HSGPU_HD Real dot3(const Real *a, const Real *b)
   {
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
@@ -81,25 +89,25 @@ namespace Contact {
     const Real rr = dot3(r, r);
     Real c = rr - s * s;
     // Most pairs have no contact: they recede, or (away from contact) their contact lies
-    // beyond the horizon.  Both tests are made before one branch on either (each alone is
-    // taken about half the time, unpredictably; the two together rarely fail).  The contact
-    // time c / (-b + sqrt(b^2 - v.v c)) is at least c / (-2 b): where that lies beyond the
-    // horizon (with a margin far above the round-off of either expression) the square root
-    // and the division are not needed.
+    // beyond the horizon, where the square root and the division are not needed.  Both
+    // tests are made before one branch on either (each alone is taken about half the time,
+    // unpredictably; the two together rarely fail).
     const bool near = c < Real(0.125) * rr;
     const bool receding = !(b < -bmin);
-    const bool beyond = c > Real(2) * (-b) * horizon * Real(1 + HORIZON_MARGIN);
+    const bool beyond = beyond_horizon(c, b, horizon);
     if (int(receding) | (int(!near) & int(beyond))) return Real(never());
     if (near) {
       // Near contact r.r - s^2 and r.v are small differences of large terms: recompute both
       // accurately, so that the contact time keeps its relative accuracy however small it is
-      // (and its sign decides touching versus overlapping correctly).
+      // (and its sign decides touching versus overlapping correctly), and test the horizon
+      // again with them (away from contact it was tested above; an overlap, c <= 0, is never
+      // beyond it).
       c = dot3_minus_square(r, r, s);
       b = dot3_minus_square(r, v, Real(0));
       if (!(b < -bmin)) return Real(never());
+      if (beyond_horizon(c, b, horizon)) return Real(never());
     }
     if (c <= Real(0)) return Real(0);
-    if (c > Real(2) * (-b) * horizon * Real(1 + HORIZON_MARGIN)) return Real(never());
     const Real disc = b * b - dot3(v, v) * c;
     if (disc < Real(0)) return Real(never());
     return c / (-b + sqrt(disc));
