@@ -103,7 +103,7 @@ row() {    # label N ranks base_loop base_ranks weak(0/1) base_n fields...
   awk -v lab="$label" -v n="$n" -v r="$r" -v b="$b" -v br="$br" -v weak="$weak" -v bn="$bn" \
     -v loop="$1" -v pair="$2" -v mod="$3" -v comm="$4" -v neigh="$5" -v fix="$6" -v res="$7" \
     -v st="$8" -v coll="$9" 'BEGIN {
-      eff = weak ? (b / bn) / (loop / n) : b * br / (loop * r)
+      eff = weak ? (b / bn) / (loop / n) * br / r : b * br / (loop * r)
       printf "| %s | %d | %d | %.2f | %.2f | %.2f | %.2f | %.2f | %.3f | %.0f%% | %.3g | %d of %d |\n",
         lab, n, r, loop, pair, mod, comm, neigh, fix, 100 * eff, coll, res, st }'
 }
@@ -133,7 +133,7 @@ fi
 
 if [[ " $tables " == *" 2 "* ]]; then
   echo "Weak scaling, collisions only, about $per atoms per GPU, efficiency (time per atom of the"
-  echo "first rank count) / (time per atom): t(${ranks[0]}) N(P) / (t(P) N(${ranks[0]})) of the whole step."
+  echo "first rank count) / (time per atom x ranks): t(${ranks[0]}) N(P) ${ranks[0]} / (t(P) N(${ranks[0]}) P) of the whole step."
   echo
   echo "$hdr"
   echo "$rul"

@@ -72,7 +72,6 @@ using namespace FixConst;
 
 namespace {
 
-constexpr double NEVER_COLLIDED = -1.0e30;    // tlast of an atom that never collided
 const char *const FACES[HSGPU::Collide::NFACES] = {"xlo", "xhi", "ylo", "yhi", "zlo", "zhi"};
 constexpr int NVECTOR = 31;
 constexpr int DEFAULT_MAXPUSH = 1000;    // overlap push passes before giving up
@@ -126,7 +125,7 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
     Fix(lmp, narg, arg), serial_order(0), spanning_gather(1), nwindows_user(0), tc_user(-1.0),
     vmin(0.0), vmin_auto(1), tc_slow(1),
     maxevents_user(-1), maxevents_warn(0), overlap_push(0), maxpush(DEFAULT_MAXPUSH),
-    reach_user(-1.0), gpu_requested(0), device_request(-1), backend_device(-1), friction_on(0),
+    reach_user(-1.0), gpu_requested(0), device_request(-1), gpu_gather(1), backend_device(-1), friction_on(0),
     disc_user(0), friction_guard(1), inertia(0.4), rmax(0.0),
     reach_base(0.0), reach(0.0), reach_raise(0.0), list_cut(0.0), raise_drift(0.0), step_vmax2(0.0),
     step_amax(0.0), vend2(0.0), maxevents(0), tlast(nullptr), n_step(0.0), n_total(0.0),
@@ -382,6 +381,15 @@ void FixHardSphere::parse(int narg, char **arg)
         gpu_requested = 0;
       else
         error->all(FLERR, "Fix hardsphere: gpu must be yes or no, got {}", arg[iarg + 1]);
+      iarg += 2;
+    } else if (strcmp(kw, "gpu/gather") == 0) {
+      need(1, kw);
+      if (strcmp(arg[iarg + 1], "yes") == 0)
+        gpu_gather = 1;
+      else if (strcmp(arg[iarg + 1], "no") == 0)
+        gpu_gather = 0;
+      else
+        error->all(FLERR, "Fix hardsphere: gpu/gather must be yes or no, got {}", arg[iarg + 1]);
       iarg += 2;
     } else if (strcmp(kw, "device") == 0) {
       need(1, kw);
@@ -670,12 +678,16 @@ void FixHardSphere::setup_backend()
   if (device == backend_device && backend) return;
   backend.reset();
   resident.reset();
+  gather_step = false;
   if (device >= 0) {
     try {
       backend = HSGPU::Collide::make_cuda_backend(device);
-      // One rank: whole steps on the device, in either order (on several, groups spanning
-      // ranks are gathered between the windows, which the host driver does).
-      if (comm->nprocs == 1) {
+      // One rank: whole steps on the device, in either order.  Several with group all and
+      // gpu/gather yes: rank 0's device runs each step over every rank's atoms
+      // (step_gathered()); with gpu/gather no each rank's host driver hands its device the
+      // windows' groups.
+      gather_step = comm->nprocs > 1 && gpu_gather && igroup == 0;
+      if (comm->nprocs == 1 || (gather_step && comm->me == 0)) {
         resident = HSGPU::Collide::make_cuda_resident_step(device);
         resident->set_serial(serial_order);
       }
@@ -689,7 +701,9 @@ void FixHardSphere::setup_backend()
   if (device >= 0 && comm->me == 0)
     utils::logmesg(lmp, "Fix hardsphere: CUDA collision backend, rank 0 on device {} ({}){}\n",
                    device, HSGPU::GPU::device_description(device),
-                   (serial_order && !resident) ? "; order serial runs on the host" : "");
+                   gather_step ? "; each step's atoms gathered on rank 0, whose device runs the step"
+                   : (serial_order && !resident) ? "; order serial runs on the host"
+                                                 : "");
 }
 
 double FixHardSphere::compute_vector(int n)

@@ -61,6 +61,8 @@ class FixHardSphere : public Fix {
  protected:
   // LAMMPS's Domain::boundary code of a fixed ('f') face (0 periodic, 2 and 3 shrink-wrapped).
   static constexpr int FIXED_FACE = 1;
+  // tlast of an atom that never collided.
+  static constexpr double NEVER_COLLIDED = -1.0e30;
   // --- settings -------------------------------------------------------------------------
   std::vector<double> epair;    // restitution of type pairs, (ntypes + 1)^2
   HSGPU::Collide::Walls walls;
@@ -79,6 +81,9 @@ class FixHardSphere : public Fix {
   double reach_user;        // largest distance an atom may move per step, <= 0: auto
   int gpu_requested;        // gpu yes: the CUDA collision backend where a device is usable
   int device_request;       // CUDA device to use, < 0: auto (node-local rank)
+  int gpu_gather;           // gpu/gather: 1 (default) several ranks gather their atoms on rank
+                            // 0 each step, whose device runs the whole step; 0 each rank's
+                            // device resolves the groups its host driver hands it
   int backend_device;       // device of the current backend, -1: the CPU backend
   // Rough spheres: friction mu and tangential restitution beta0 of type pairs, 2 per pair
   // ((ntypes + 1)^2 pairs); walls.mu and walls.beta for the walls.
@@ -149,6 +154,7 @@ class FixHardSphere : public Fix {
     bigint resident = 0;        // steps carried out on the device
     double t_transfer = 0.0;    // seconds copying bodies to the device and back
     double bytes_up = 0.0;      // bytes of atom arrays copied to the device (whole steps)
+    double t_gather = 0.0;      // gpu/gather: seconds moving the atoms to rank 0 and back
     double collectives = 0.0, halos = 0.0, bytes = 0.0;    // communication (this rank's)
     double messages = 0.0;
     bigint declined[5] = {0, 0, 0, 0, 0};                  // steps handed back, by ResidentOutcome
@@ -198,7 +204,8 @@ class FixHardSphere : public Fix {
   // order serial per lbodies and gbodies entry.  Only on steps that LAMMPS asks for it.
   std::vector<double> bvir, lvir, gvir;
   bigint vatom_step;    // step whose per-atom virial vatom holds, -1: none
-  // The CUDA backend's device-resident step (one rank, parallel order), else null.
+  // The CUDA backend's device-resident step (one rank; on several, rank 0 with gather_step), else
+  // null.
   std::unique_ptr<HSGPU::Collide::ResidentStep> resident;
   // The resident step's device copies of tlast, radius, rmass, type and id are current: the
   // last step was done there whole, and since then no atom moved in the arrays, arrived or
@@ -208,6 +215,23 @@ class FixHardSphere : public Fix {
   // A fix that changes radius, mass or type in place (fix adapt, type swaps): those arrays go
   // to the device every step.
   bool sizes_vary = false;
+  // gpu yes on several ranks with group all and gpu/gather yes: each step's atoms gathered on
+  // rank 0, whose `resident` step runs it (step_gathered(); the same on every rank).
+  bool gather_step = false;
+  // Rank 0's copies of all atoms for that step, in rank order (grown, never shrunk: the device
+  // step keeps them page-locked where they lie).
+  struct Gathered {
+    std::vector<int> head;             // per rank: atoms, and whether its arrays are unchanged
+    std::vector<int> count, displ;     // per rank: atoms and offset (rank 0)
+    std::vector<int> vcount, vdispl;   // the same times values per atom, for one transfer
+    std::vector<double> x, v, f, tlast, radius, rmass, omega;
+    std::vector<int> type;
+    std::vector<tagint> id;
+    long room = 0;    // atoms the arrays hold
+    std::vector<HSGPU::Collide::ResidentResult> results;    // the atoms with events (rank 0)
+    std::vector<double> rspin;                              // and their spins (rough spheres)
+    std::vector<double> send, recv;                         // the results, by rank
+  } gath;
   class LammpsExchange *exchange;
   int fwd_nval;                     // forward communication: 0 the state (NFWD), else xfwd's nval
   std::vector<double> xfwd;         // per-atom values for the driver's to_foreign
@@ -240,12 +264,16 @@ class FixHardSphere : public Fix {
   double periodic_reach() const;
   void plan_ghost_raise(double drift);
   void reach_error(double moved, const char *what);
-  /// This step can go to the device-resident step: one rank, no per-atom virial asked for.
+  /// This step can go to the device-resident step: one rank, or several with the atoms
+  /// gathered on rank 0 (gather_step), and no per-atom virial asked for.
   bool resident_usable() const;
   double step_bound(int i, double drift_dt) const;
   bool gather_bodies(double drift_dt);
   int build(double drift_dt, bool collect_pushes);
   int step_resident(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
+  int step_gathered(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
+  HSGPU::Collide::ResidentBox resident_box() const;
+  void count_resident(const HSGPU::Collide::ResidentReport &report);
   void report_overlap(int npush, int left);
   void prepare(double drift_dt);
   int overlap_pass(double drift_dt, int pass, double &moved);

@@ -63,7 +63,6 @@ using HSGPU::Collide::Tally;
 
 namespace {
 
-constexpr double NEVER_COLLIDED = -1.0e30;
 constexpr double OVERLAP_TOL = 1e-9;    // pairs closer than (1 - tol) x contact overlap
 // overlap push moves a pair to this much beyond contact (relative): a margin well above the
 // overlap criterion lets the relaxation end in a few passes rather than creep up to it.
@@ -1210,25 +1209,13 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
 
 bool FixHardSphere::resident_usable() const
 {
-  return resident && comm->nprocs == 1 && !vflag_atom;
+  if (vflag_atom) return false;
+  return comm->nprocs == 1 ? (bool) resident : gather_step;
 }
 
-/* The whole step on the device (engine/resident_step.h), where there is a resident step:
-   with group all, the atoms' arrays up and the atoms that had events back (returns 2); else
-   the group's bodies and step bounds up and back (returns 1, apply_results() still to do).
-   Returns 0, with nothing changed, where the device hands the step back (an overlap, a
-   missed contact, the event cap, a box too small for its cells): the host then resolves it
-   from the same start. */
-int FixHardSphere::step_resident(Tally &mine, Tally &all)
+/* The box and limits a resident step works in. */
+HSGPU::Collide::ResidentBox FixHardSphere::resident_box() const
 {
-  // Whatever this step does, the device's copies are current after it only where it is done
-  // there whole.
-  const bool same = resident_same && !sizes_vary;
-  resident_same = false;
-  // Per-atom virial: on the host (the device step does not tally it).
-  if (!resident_usable()) return 0;
-  const double dt = update->dt;
-  const double t_start = MPI_Wtime();
   HSGPU::Collide::ResidentBox box;
   for (int d = 0; d < 3; ++d) {
     box.lo[d] = domain->boxlo[d];
@@ -1239,6 +1226,52 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
   box.periodic[2] = domain->zperiodic;
   box.overlap_tol = OVERLAP_TOL;
   box.reach = reach;
+  return box;
+}
+
+/* The timers and counters of a resident step (one rank, or rank 0's gathered step as every
+   rank got it); on `done` also the last step's figures. */
+void FixHardSphere::count_resident(const HSGPU::Collide::ResidentReport &report)
+{
+  t_search += report.t_search;
+  t_resolve += report.t_resolve;
+  n_redo += (double) report.redone;    // steps the device did again with raised bounds
+  run_sum.t_transfer += report.t_upload + report.t_download;
+  run_sum.bytes_up += (double) report.bytes_up;
+  if (report.outcome != HSGPU::Collide::ResidentOutcome::done) {
+    n_declined += 1.0;
+    run_sum.declined[(int) report.outcome]++;
+    return;
+  }
+  last_candidates = (double) report.candidates;    // the device's search, the same pairs
+  n_resident += 1.0;
+  run_sum.resident++;
+  n_repair += (double) report.stats.repairs;
+  last_largest = (double) report.stats.largest_group;
+  last_groups = (double) report.stats.groups;
+  last_windows = (double) report.stats.windows;
+  last_boundary = 0.0;
+  last_gathers = last_spanning = last_fallbacks = last_gathered = last_neighbour = 0.0;
+}
+
+/* The whole step on the device (engine/resident_step.h), where there is a resident step:
+   with group all, the atoms' arrays up and the atoms that had events back (returns 2); else
+   the group's bodies and step bounds up and back (returns 1, apply_results() still to do).
+   Returns 0, with nothing changed, where the device hands the step back (an overlap, a
+   missed contact, the event cap, a box too small for its cells): the host then resolves it
+   from the same start.  On several ranks: step_gathered(). */
+int FixHardSphere::step_resident(Tally &mine, Tally &all)
+{
+  if (comm->nprocs > 1) return step_gathered(mine, all);
+  // Whatever this step does, the device's copies are current after it only where it is done
+  // there whole.
+  const bool same = resident_same && !sizes_vary;
+  resident_same = false;
+  // Per-atom virial: on the host (the device step does not tally it).
+  if (!resident_usable()) return 0;
+  const double dt = update->dt;
+  const double t_start = MPI_Wtime();
+  const HSGPU::Collide::ResidentBox box = resident_box();
   HSGPU::Collide::ResidentReport report;
   mine = Tally();
   // Group all: LAMMPS's own arrays go up and the atoms with events come back; else the
@@ -1280,28 +1313,12 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
   } catch (std::exception &e) {
     error->one(FLERR, "Fix hardsphere: CUDA device {}: {}", backend_device, e.what());
   }
-  t_search += t_gather + report.t_search;
-  t_resolve += report.t_resolve;
-  n_redo += (double) report.redone;    // steps the device did again with raised bounds
-  run_sum.t_transfer += report.t_upload + report.t_download;
-  run_sum.bytes_up += (double) report.bytes_up;
-  if (report.outcome != HSGPU::Collide::ResidentOutcome::done) {
-    n_declined += 1.0;
-    run_sum.declined[(int) report.outcome]++;
-    return 0;
-  }
+  t_search += t_gather;
+  count_resident(report);
+  if (report.outcome != HSGPU::Collide::ResidentOutcome::done) return 0;
   all = mine;
   resident_same = whole;
-  last_candidates = (double) report.candidates;    // the device's search, the same pairs
-  if (whole) vend2 = report.vend2;                 // the atoms' speeds at the step end
-  n_resident += 1.0;
-  run_sum.resident++;
-  n_repair += (double) report.stats.repairs;
-  last_largest = (double) report.stats.largest_group;
-  last_groups = (double) report.stats.groups;
-  last_windows = (double) report.stats.windows;
-  last_boundary = 0.0;
-  last_gathers = last_spanning = last_fallbacks = last_gathered = last_neighbour = 0.0;
+  if (whole) vend2 = report.vend2;    // the atoms' speeds at the step end
   // With group all the device also shifted every atom's time of last collision to the end of
   // this step.
   return whole ? 2 : 1;
@@ -1430,12 +1447,17 @@ void FixHardSphere::post_run()
     using HSGPU::Collide::ResidentOutcome;
     auto back = [&](ResidentOutcome o) { return r.declined[(int) o]; };
     utils::logmesg(lmp,
-                   "Fix hardsphere: {} of {} steps carried out whole on the device ({:.4g} s of "
-                   "the search and resolve times copying atoms to the device and back, {:.4g} "
-                   "MB per step up); handed back to the host: {} (overlap at the start), {} (a "
+                   "Fix hardsphere: {} of {} steps carried out whole on the device{} ({:.4g} s "
+                   "of the search and resolve times copying atoms to the device and back, {:.4g} "
+                   "MB per step up{}); handed back to the host: {} (overlap at the start), {} (a "
                    "missed contact), {} (maxevents), {} (a periodic length shorter than three "
                    "search cells)\n",
-                   r.resident, r.steps, r.t_transfer, 1e-6 * r.bytes_up / n,
+                   r.resident, r.steps, gather_step ? " of rank 0" : "", r.t_transfer,
+                   1e-6 * r.bytes_up / n,
+                   gather_step ? fmt::format(", and {:.4g} s gathering the atoms of all ranks on "
+                                             "rank 0 and sending the results back",
+                                             r.t_gather)
+                               : std::string(),
                    back(ResidentOutcome::overlap), back(ResidentOutcome::excursion),
                    back(ResidentOutcome::capped), back(ResidentOutcome::small_box));
   }

@@ -983,6 +983,8 @@ TEST(FixHardSphere, BadInputStopsWithANamedError)
               HasSubstr("maxpush must be >= 1"));
   EXPECT_THAT(first_error({"fix hs all hardsphere gpu maybe"}),
               HasSubstr("gpu must be yes or no, got maybe"));
+  EXPECT_THAT(first_error({"fix hs all hardsphere gpu yes gpu/gather 1"}),
+              HasSubstr("gpu/gather must be yes or no, got 1"));
   EXPECT_THAT(first_error({"fix hs all hardsphere device -2"}),
               HasSubstr("device must be auto or >= 0"));
   // The timestep: zero or negative is named (not a NaN pressure, not an overlap later on).

@@ -28,6 +28,7 @@ struct Snapshot {
   double sred[6], pvir[6], wsum[3];    // per-atom virial: sums, -V x the global one, weighted
   double dmean = 0.0, mmean = 0.0;     // mean |sum - global| and mean |sum| over the steps
   double comm[3];                      // f_hs[24 ... 26]: the last step's communication
+  double on_device = 0.0, declined = 0.0;    // f_hs[18], f_hs[19]: steps whole on a device
 };
 
 // 500 spheres of two sizes in a box periodic in x and y with floor and roof, under gravity.
@@ -93,18 +94,22 @@ Snapshot run_on(MPI_Comm comm, const std::string &order, int steps, bool pair_gr
   s.w = lmp.gather("omega", 3);
   for (int i = 0; i < 6; ++i) s.f[i] = lmp.fix_vector("hs", i);
   for (int i = 0; i < 3; ++i) s.comm[i] = lmp.fix_vector("hs", 23 + i);
+  s.on_device = lmp.fix_vector("hs", 17);
+  s.declined = lmp.fix_vector("hs", 18);
   s.press = lmp.compute_scalar("p");
   return s;
 }
 
+// out: the run on all ranks (on every rank).
 void compare(const std::string &world_order, const std::string &single_order,
-             bool pair_gravity = false)
+             bool pair_gravity = false, Snapshot *out = nullptr)
 {
   int me = 0, np = 1;
   MPI_Comm_rank(MPI_COMM_WORLD, &me);
   MPI_Comm_size(MPI_COMM_WORLD, &np);
   const int steps = 400;
   const Snapshot world = run_on(MPI_COMM_WORLD, world_order, steps, pair_gravity);
+  if (out) *out = world;
   if (me == 0) {
     const Snapshot single = run_on(MPI_COMM_SELF, single_order, steps, pair_gravity);
     ASSERT_EQ(world.x.size(), single.x.size());
@@ -206,7 +211,39 @@ TEST(FixHardSphereMPI, PairGravityWindowsAgreeWithSingleRankSerial)
 TEST(FixHardSphereMPI, CudaBackendOnAllRanksAgreesWithSingleRankSerial)
 {
   if (HSGPU::GPU::device_count() == 0) GTEST_SKIP() << "no CUDA device on this machine";
-  compare("parallel gpu yes", "serial");
+  Snapshot s;
+  compare("parallel gpu yes gpu/gather no", "serial", false, &s);
+  int np = 1;
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  if (np > 1) {
+    EXPECT_EQ(s.on_device, 0.0);    // each rank's device resolves groups only
+  }
+}
+
+// gpu yes on several ranks (gpu/gather yes, the default): every step's atoms gathered on rank
+// 0, whose device runs the whole step; one rank's bits, in both orders, with rough spheres too.
+TEST(FixHardSphereMPI, CudaGatheredStepAgreesWithSingleRank)
+{
+  if (HSGPU::GPU::device_count() == 0) GTEST_SKIP() << "no CUDA device on this machine";
+  const std::string rough =
+      " friction 0.5 0.3 friction/pair 1 2 0.3 0.0 wall/friction zlo 0.6 0.2 wall/friction zhi "
+      "0.2 -0.5";
+  const std::vector<std::string> cases = {"parallel gpu yes|serial", "serial gpu yes|parallel",
+                                          "parallel gpu yes" + rough + "|parallel" + rough};
+  for (const std::string &orders : cases) {
+    const size_t bar = orders.find('|');
+    Snapshot s;
+    compare(orders.substr(0, bar), orders.substr(bar + 1), false, &s);
+    // Every step on the device (none handed back in this system), and the gathers counted as
+    // the fix's communication on several ranks.
+    EXPECT_EQ(s.on_device + s.declined, 400.0) << orders;
+    EXPECT_GT(s.on_device, 390.0) << orders;
+    int np = 1;
+    MPI_Comm_size(MPI_COMM_WORLD, &np);
+    if (np > 1) {
+      EXPECT_GT(s.comm[2], 0.0) << orders;
+    }
+  }
 }
 
 // Issue 15: rough spheres (friction between the types and on the floor): the spins travel with

@@ -36,6 +36,8 @@
 
 #include "window_driver.h"
 
+#include <vector>
+
 namespace HSGPU {
 namespace Collide {
 
@@ -75,6 +77,13 @@ namespace Collide {
     long bytes_up = 0;    // run_atoms(): bytes copied to the device for the step
   };
 
+  /// The end of the step of an atom that had events (ResidentAtoms::results): its index in
+  /// the caller's arrays, end-of-step position and velocity.
+  struct ResidentResult {
+    int index;
+    double x[3], v[3];
+  };
+
   /// A caller's per-atom arrays, when every atom is a body (ResidentStep::run_atoms): the
   /// bodies are built and the results written on the device, so that only these arrays and
   /// the atoms that had events cross the link.
@@ -98,6 +107,12 @@ namespace Collide {
                            // step's own, half of step_least() of the atoms' maxima (the report's)
     double reach;
     double never;    // the least time of last collision (an atom that never collided)
+    // Where given: x, v and omega are left as they were, and the atoms that had events are
+    // listed here instead, in increasing index (with their angular velocities, 3 each, in
+    // result_spin for rough spheres); tlast is written for every atom as always.  For a
+    // caller that sends them on (FixHardSphere's step of several ranks on rank 0's device).
+    std::vector<ResidentResult> *results = nullptr;
+    std::vector<double> *result_spin = nullptr;
     // The caller vouches that tlast, radius, rmass, type and id hold what they held at the end
     // of the last run_atoms() that returned `done` (same atoms in the same order, nothing
     // written to them since): the step may then keep its device copies instead of copying

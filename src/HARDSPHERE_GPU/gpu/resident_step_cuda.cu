@@ -928,10 +928,7 @@ namespace Collide {
 
     /// What goes back to the caller for an atom that had events (56 bytes; rough spheres'
     /// angular velocities go in an array of their own, 3 per result).
-    struct AtomResult {
-      int index;
-      double x[3], v[3];
-    };
+    using AtomResult = ResidentResult;
 
     // Launch: one thread per body (n >= 1).  flag[b] = 1 where body b had events, else 0, and
     // flag[n] = 0 (for the scan of n + 1).
@@ -2038,7 +2035,7 @@ namespace Collide {
       // host's scattered writes (which touch most cache lines of the arrays anyway).  The
       // other atoms get their own bytes back.
       static const bool scatter = std::getenv("HSGPU_RESIDENT_SCATTER") != nullptr;
-      const bool whole = !scatter && changed > n / 32 && locked[0].p && locked[1].p;
+      const bool whole = !a.results && !scatter && changed > n / 32 && locked[0].p && locked[1].p;
       if (whole) {
         ++prof.whole;
         if (changed > 0) {
@@ -2073,7 +2070,13 @@ namespace Collide {
         }
         cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(atom results)");
         const double *w = host_rspin.as<double>();
-        for (int k = 0; k < changed; ++k) {
+        if (a.results) {
+          // The caller takes the results as they are.
+          const AtomResult *r = host_results.as<AtomResult>();
+          a.results->assign(r, r + changed);
+          if (spin && a.result_spin) a.result_spin->assign(w, w + 3 * (size_t) changed);
+        }
+        for (int k = 0; k < changed && !a.results; ++k) {
           const AtomResult &r = host_results.as<AtomResult>()[k];
           for (int d = 0; d < 3; ++d) {
             a.x[3 * r.index + d] = r.x[d];

@@ -1,0 +1,270 @@
+/* ----------------------------------------------------------------------------------
+   HARDSPHERE_GPU: fix hardsphere, the device step of several ranks (see fix_hardsphere.h).
+
+   With `gpu yes` on several MPI ranks, group all and `gpu/gather yes` (the default), each step
+   every rank sends its atoms' arrays to rank 0 (MPI_Gatherv straight from LAMMPS's arrays:
+   positions, velocities, forces; times of last collision, radii, masses, types and IDs only
+   where some rank's atoms moved in its arrays since the last such step; angular velocities of
+   rough spheres), rank 0's device runs the whole step over all atoms as on one rank
+   (ResidentStep::run_atoms), and the atoms that had events go back to their ranks (position,
+   velocity, time of last collision, spin: MPI_Scatterv); every rank shifts its other atoms'
+   times of last collision to the step end itself.  Event times depend only on the two atoms'
+   states, so the result is one rank's bit for bit, whatever order the atoms arrive in.  Where
+   the device hands the step back, every rank resolves it the host way from the same start
+   (its arrays are untouched until the results come).
+------------------------------------------------------------------------------------- */
+
+#include "fix_hardsphere.h"
+
+#include "atom.h"
+#include "comm.h"
+#include "error.h"
+#include "force.h"
+#include "update.h"
+
+#include <algorithm>
+#include <climits>
+#include <exception>
+#include <mpi.h>
+
+using namespace LAMMPS_NS;
+using HSGPU::Collide::Tally;
+
+namespace {
+
+// What rank 0 sends every rank after its step: the outcome, the tally and the report's
+// figures.  One broadcast of doubles (the counts are far below 2^53).
+struct GatheredResult {
+  double outcome, pair, wall, rest, events, capped, ke_lost;
+  double vmax2, amax, rmax, vend2, candidates, redone;
+  double t_search, t_resolve, t_upload, t_download, bytes_up;
+  double largest_group, groups, windows, repairs;
+};
+constexpr int NRESULT = (int) (sizeof(GatheredResult) / sizeof(double));
+
+}    // namespace
+
+/* The step on rank 0's device over every rank's atoms.  Returns 2 where the device did it (the
+   atoms' arrays hold the results), else 0 with nothing changed. */
+int FixHardSphere::step_gathered(Tally &mine, Tally &all)
+{
+  const int nlocal = atom->nlocal, np = comm->nprocs, me = comm->me;
+  // Per rank: its atoms, and whether its arrays hold what the last gathered step left there.
+  int head[2] = {nlocal, (resident_same && !sizes_vary) ? 1 : 0};
+  resident_same = false;
+  if (!resident_usable()) return 0;
+  gath.head.resize(2 * (size_t) np);
+  MPI_Allgather(head, 2, MPI_INT, gath.head.data(), 2, MPI_INT, world);
+  count_collective(2.0 * sizeof(int) * (np - 1));
+  bool same = true;
+  long n = 0;
+  for (int p = 0; p < np; ++p) {
+    same = same && gath.head[2 * p + 1];
+    n += gath.head[2 * p];
+  }
+  if (3 * n + 3 > INT_MAX)
+    error->all(FLERR,
+               "Fix hardsphere: {} atoms are too many to gather on one rank for the device step "
+               "(at most {}); use gpu/gather no",
+               n, INT_MAX / 3 - 1);
+  const double t_start = MPI_Wtime();
+  if (n > gath.room) {
+    // Rank 0's arrays grow (every rank keeps the size, so all send everything this step); the
+    // device step lets go of the old arrays before they move.
+    gath.room = n + n / 8 + 64;
+    same = false;
+    if (me == 0) {
+      resident->forget_host_arrays();
+      for (std::vector<double> *w : {&gath.x, &gath.v, &gath.f, &gath.omega})
+        w->resize(3 * (size_t) gath.room);
+      for (std::vector<double> *w : {&gath.tlast, &gath.radius, &gath.rmass}) w->resize(gath.room);
+      gath.type.resize(gath.room);
+      gath.id.resize(gath.room);
+    }
+  }
+  if (me == 0) {
+    gath.count.resize(np);
+    gath.displ.resize(np);
+    gath.vcount.resize(np);
+    gath.vdispl.resize(np);
+    for (int p = 0, off = 0; p < np; ++p) {
+      gath.count[p] = gath.head[2 * p];
+      gath.displ[p] = off;
+      off += gath.count[p];
+    }
+  }
+  // One array of `per` values per atom, from every rank to rank 0 or back.
+  double moved = 0.0;    // bytes this rank received
+  auto counts = [&](int per) {
+    if (me != 0) return;
+    for (int p = 0; p < np; ++p) {
+      gath.vcount[p] = per * gath.count[p];
+      gath.vdispl[p] = per * gath.displ[p];
+    }
+  };
+  auto gather = [&](void *mine_, int per, MPI_Datatype type, void *all_) {
+    counts(per);
+    MPI_Gatherv(mine_, per * nlocal, type, all_, gath.vcount.data(), gath.vdispl.data(), type, 0,
+                world);
+    int size = 0;
+    MPI_Type_size(type, &size);
+    if (me == 0) moved += (double) size * per * (n - nlocal);
+  };
+  double *x0 = nlocal ? atom->x[0] : nullptr, *v0 = nlocal ? atom->v[0] : nullptr;
+  double *f0 = nlocal ? atom->f[0] : nullptr;
+  double *w0 = (friction_on && nlocal) ? atom->omega[0] : nullptr;
+  gather(x0, 3, MPI_DOUBLE, gath.x.data());
+  gather(v0, 3, MPI_DOUBLE, gath.v.data());
+  gather(f0, 3, MPI_DOUBLE, gath.f.data());
+  if (friction_on) gather(w0, 3, MPI_DOUBLE, gath.omega.data());
+  // The rest only where some rank's atoms moved in its arrays (the device keeps its copies).
+  if (!same) {
+    gather(tlast, 1, MPI_DOUBLE, gath.tlast.data());
+    gather(atom->radius, 1, MPI_DOUBLE, gath.radius.data());
+    gather(atom->rmass, 1, MPI_DOUBLE, gath.rmass.data());
+    gather(atom->type, 1, MPI_INT, gath.type.data());
+    gather(atom->tag, 1, MPI_LMP_TAGINT, gath.id.data());
+  }
+  const double t_gather = MPI_Wtime() - t_start;
+
+  mine = Tally();
+  GatheredResult r = {};
+  if (me == 0) {
+    HSGPU::Collide::ResidentReport report;
+    HSGPU::Collide::ResidentAtoms a;
+    a.n = (int) n;
+    a.x = gath.x.data();
+    a.v = gath.v.data();
+    a.f = gath.f.data();
+    a.tlast = gath.tlast.data();
+    a.radius = gath.radius.data();
+    a.rmass = gath.rmass.data();
+    a.type = gath.type.data();
+    a.id = gath.id.data();
+    a.id_bytes = (int) sizeof(tagint);
+    a.ftm2v = force->ftm2v;
+    a.bound_floor = -1.0;    // the device works out the step budget
+    a.reach = reach;
+    a.never = NEVER_COLLIDED;
+    a.same_atoms = same;
+    a.omega = friction_on ? gath.omega.data() : nullptr;
+    a.results = &gath.results;    // the atoms with events listed, to go back to their ranks
+    a.result_spin = &gath.rspin;
+    try {
+      resident->run_atoms(a, resident_box(), step_params(), wsettings, mine, report);
+    } catch (std::exception &e) {
+      error->one(FLERR,
+                 "Fix hardsphere: CUDA device {} (the step of all {} atoms of the ranks, "
+                 "gpu/gather yes): {}; with gpu/gather no each rank's device takes only the "
+                 "groups of its own atoms",
+                 backend_device, n, e.what());
+    }
+    r = {(double) report.outcome,
+         (double) mine.pair,
+         (double) mine.wall,
+         (double) mine.rest,
+         (double) mine.events,
+         (double) mine.capped,
+         mine.ke_lost,
+         report.vmax2,
+         report.amax,
+         report.rmax,
+         report.vend2,
+         (double) report.candidates,
+         (double) report.redone,
+         report.t_search,
+         report.t_resolve,
+         report.t_upload,
+         report.t_download,
+         (double) report.bytes_up,
+         (double) report.stats.largest_group,
+         (double) report.stats.groups,
+         (double) report.stats.windows,
+         (double) report.stats.repairs};
+  }
+  MPI_Bcast(&r, NRESULT, MPI_DOUBLE, 0, world);
+  count_collective(sizeof(r));
+  HSGPU::Collide::ResidentReport report;
+  report.outcome = (HSGPU::Collide::ResidentOutcome)(int) r.outcome;
+  report.vend2 = r.vend2;
+  report.candidates = (long) r.candidates;
+  report.redone = (int) r.redone;
+  report.t_search = r.t_search + t_gather;    // the gather counts as the step's upload
+  report.t_resolve = r.t_resolve;
+  report.t_upload = r.t_upload;
+  report.t_download = r.t_download;
+  report.bytes_up = (long) r.bytes_up;
+  report.stats.largest_group = (long) r.largest_group;
+  report.stats.groups = (long) r.groups;
+  report.stats.windows = (long) r.windows;
+  report.stats.repairs = (long) r.repairs;
+  // The budget's checks on every rank, and bound_floor for the host should the device decline.
+  check_budget(r.vmax2, r.amax, r.rmax);
+  if (report.outcome == HSGPU::Collide::ResidentOutcome::done) {
+    // The results back to their ranks: per atom with events its index there, position,
+    // velocity, time of last collision (and spin); every other atom's time of last collision
+    // is shifted to the step end here, as the device did (max(t - dt, never)).
+    const double t0 = MPI_Wtime();
+    const int per = friction_on ? 11 : 8;
+    if (me == 0) {
+      std::fill(gath.vcount.begin(), gath.vcount.end(), 0);
+      gath.send.resize((size_t) per * gath.results.size());
+      double *out = gath.send.data();
+      int p = 0;
+      for (size_t k = 0; k < gath.results.size(); ++k, out += per) {
+        const HSGPU::Collide::ResidentResult &res = gath.results[k];
+        while (p + 1 < np && res.index >= gath.displ[p + 1]) ++p;    // increasing indices
+        gath.vcount[p] += per;
+        out[0] = (double) (res.index - gath.displ[p]);
+        for (int d = 0; d < 3; ++d) {
+          out[1 + d] = res.x[d];
+          out[4 + d] = res.v[d];
+        }
+        out[7] = gath.tlast[res.index];
+        if (friction_on)
+          for (int d = 0; d < 3; ++d) out[8 + d] = gath.rspin[3 * k + d];
+      }
+      for (int q = 0, off = 0; q < np; ++q) {
+        gath.vdispl[q] = off;
+        off += gath.vcount[q];
+      }
+    }
+    int nrecv = 0;
+    MPI_Scatter(gath.vcount.data(), 1, MPI_INT, &nrecv, 1, MPI_INT, 0, world);
+    gath.recv.resize(nrecv);
+    MPI_Scatterv(gath.send.data(), gath.vcount.data(), gath.vdispl.data(), MPI_DOUBLE,
+                 gath.recv.data(), nrecv, MPI_DOUBLE, 0, world);
+    if (me != 0) moved += sizeof(int) + (double) sizeof(double) * nrecv;
+    const double dt = update->dt;
+    for (int i = 0; i < nlocal; ++i) tlast[i] = std::max(tlast[i] - dt, NEVER_COLLIDED);
+    for (const double *in = gath.recv.data(); in < gath.recv.data() + nrecv; in += per) {
+      const int i = (int) in[0];
+      for (int d = 0; d < 3; ++d) {
+        x0[3 * i + d] = in[1 + d];
+        v0[3 * i + d] = in[4 + d];
+      }
+      tlast[i] = in[7];
+      if (friction_on)
+        for (int d = 0; d < 3; ++d) w0[3 * i + d] = in[8 + d];
+    }
+    report.t_resolve += MPI_Wtime() - t0;
+    run_sum.t_gather += MPI_Wtime() - t0;
+  }
+  run_sum.t_gather += t_gather;
+  // The gathers and scatters as one collective, with the bytes this rank received.
+  count_collective(moved);
+  count_resident(report);
+  if (report.outcome != HSGPU::Collide::ResidentOutcome::done) return 0;
+  // Counts for every rank; the virial and energy of the step stay with rank 0's `mine` (LAMMPS
+  // sums the fix's virial over the ranks).
+  all = Tally();
+  all.pair = (long) r.pair;
+  all.wall = (long) r.wall;
+  all.rest = (long) r.rest;
+  all.events = (long) r.events;
+  all.capped = (int) r.capped;
+  all.ke_lost = r.ke_lost;
+  resident_same = true;
+  vend2 = report.vend2;
+  return 2;
+}
