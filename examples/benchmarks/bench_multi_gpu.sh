@@ -12,7 +12,10 @@
 #      the final positions and velocities of every atom compared bit for bit with the 1-rank
 #      run (write_dump ... sorted by ID, %.17g), and the same for the gravity runs of table 1
 #      at the smallest N, where the forces are summed per rank and differ at round-off: there
-#      the largest position difference is printed.
+#      the largest position difference is printed;
+#   4. `gpu/gather yes` (the default: each step's atoms gathered on rank 0, whose device runs
+#      the step) against `gpu/gather no` (each rank's device resolves its host's groups):
+#      lattice3d collisions only, `per` atoms per rank, on each rank count above 1.
 #
 #   examples/benchmarks/bench_multi_gpu.sh lmp plugin ["ranks"] ["sizes"] [per] [reps]
 #
@@ -35,7 +38,7 @@ read -r -a ranks <<< "${3:-1 2}"
 read -r -a sizes <<< "${4:-65536 262144 1048576}"
 per=${5:-262144}
 reps=${6:-1}
-tables=${HSGPU_MGPU_TABLES:-1 2 3}
+tables=${HSGPU_MGPU_TABLES:-1 2 3 4}
 mpirun=${MPIRUN:-mpirun}    # may carry options, e.g. "mpirun --bind-to none"
 export OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 work=$(mktemp -d)
@@ -54,6 +57,7 @@ for f in "$work"/in.dilute "$work"/in.lattice2d "$work"/in.lattice3d "$work"/in.
   # its own sort bin size' LAMMPS's default, half the neighbor cutoff, made too many here.)
   sed 's/^\(comm_modify.*\)$/pair_style gravity 0.001 0.5 gpu yes precision single\npair_coeff * *\n\1/; s/^\(atom_modify *map array\)$/\1 sort 1000 2.0/' \
     "$f.col" > "$f.grav"
+  sed 's/^\(fix *hs all hardsphere.*\)$/\1 gpu yes gpu\/gather no/' "$f" > "$f.nogather"
   for v in col grav; do
     sed 's/^run .*$/write_data ${dfile}/; /^print/d; /^variable *rate/d; /^variable *events/d' \
       "$f.$v" > "$f.$v.write"
@@ -187,5 +191,27 @@ if [[ " $tables " == *" 3 "* ]]; then
       [ $v = grav ] && label="$c with gravity"
       echo "| $label | $n | $steps | $r | $coll | $verdict |"
     done
+  done
+fi
+
+if [[ " $tables " == *" 4 "* ]]; then
+  echo
+  echo "lattice3d, collisions only, $per atoms per rank: the fix's step after the first (ms), and"
+  echo "for gpu/gather yes the time moving the atoms between the ranks and the bytes all ranks"
+  echo "received per step (the fix's log lines); 50 steps with gathering, 10 without:"
+  echo
+  echo "| ranks (GPUs) | N | gpu/gather yes: fix step ms | gpu/gather no: fix step ms | moving the atoms ms/step (yes) | MB received per step (yes) |"
+  echo "|---:|---:|---:|---:|---:|---:|"
+  for r in "${ranks[@]}"; do
+    [ "$r" -gt 1 ] || continue
+    n=$((per * r))
+    set -- $(one "$r" in.lattice3d.col log.gy -var N "$n" -var steps 50)
+    yes=$6
+    set -- $(one "$r" in.lattice3d.nogather log.gn -var N "$n" -var steps 10)
+    no=$6
+    mv=$(sed -n 's/.* and \([0-9.e+-]*\) s gathering the atoms.*/\1/p' "$work/log.gy")
+    kb=$(sed -n 's/.*, \([0-9.e+-]*\) kB received by all.*/\1/p' "$work/log.gy")
+    awk -v r="$r" -v n="$n" -v y="$yes" -v o="$no" -v mv="$mv" -v kb="$kb" \
+      'BEGIN {printf "| %d | %d | %.2f | %.1f | %.1f | %.1f |\n", r, n, y, o, 1e3 * mv / 50, kb / 1e3}'
   done
 fi
