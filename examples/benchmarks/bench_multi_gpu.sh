@@ -27,8 +27,9 @@
 # whole step), Pair (the gravity: with several ranks each GPU sums over all atoms for its own),
 # Modify (fix hardsphere, fix nve/sphere and fix gravity), Comm and Neigh; "fix step" is the
 # fix's own time per step after the first (its run summary); "on device" says how many steps
-# the collisions ran whole on the device (the device-resident step runs on one rank only; with
-# several ranks the CUDA backend resolves the windows' groups on each rank's GPU).
+# the collisions ran whole on a device (with several ranks, gpu/gather yes: on rank 0's device
+# over every rank's atoms; table 4 compares gpu/gather no, where each rank's GPU resolves the
+# groups of its host's windows).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
