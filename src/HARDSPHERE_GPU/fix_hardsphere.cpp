@@ -65,6 +65,7 @@
 #include <exception>
 
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 
 using namespace LAMMPS_NS;
@@ -696,6 +697,19 @@ void FixHardSphere::setup_backend()
     }
   } else {
     backend = HSGPU::Collide::make_cpu_backend();
+    // Tests (HSGPU_RESIDENT_HOST set): where gpu yes finds no device, the host's reference
+    // resident step takes the device step's place, so that the code around it runs.
+    if (gpu_requested && std::getenv("HSGPU_RESIDENT_HOST")) {
+      gather_step = comm->nprocs > 1 && gpu_gather && igroup == 0;
+      if (comm->nprocs == 1 || (gather_step && comm->me == 0)) {
+        resident = HSGPU::Collide::make_host_resident_step();
+        resident->set_serial(serial_order);
+      }
+      if (comm->me == 0)
+        utils::logmesg(lmp, "Fix hardsphere: HSGPU_RESIDENT_HOST: the host's reference resident "
+                            "step in the device step's place{}\n",
+                       gather_step ? ", each step's atoms gathered on rank 0" : "");
+    }
   }
   backend_device = device;
   if (device >= 0 && comm->me == 0)

@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <mpi.h>
 #include <string>
 #include <vector>
@@ -228,8 +229,12 @@ TEST(FixHardSphereMPI, CudaGatheredStepAgreesWithSingleRank)
   const std::string rough =
       " friction 0.5 0.3 friction/pair 1 2 0.3 0.0 wall/friction zlo 0.6 0.2 wall/friction zhi "
       "0.2 -0.5";
+  // tc/slow no: every collision's restitution follows the times of last collision, which the
+  // gathered step shifts on each rank.
   const std::vector<std::string> cases = {"parallel gpu yes|serial", "serial gpu yes|parallel",
-                                          "parallel gpu yes" + rough + "|parallel" + rough};
+                                          "parallel gpu yes" + rough + "|parallel" + rough,
+                                          "parallel gpu yes tc 0.05 tc/slow no|serial tc 0.05 "
+                                          "tc/slow no"};
   for (const std::string &orders : cases) {
     const size_t bar = orders.find('|');
     Snapshot s;
@@ -255,6 +260,33 @@ TEST(FixHardSphereMPI, FrictionAgreesWithSingleRankInBothOrders)
       "0.2 -0.5";
   compare("parallel" + rough, "parallel" + rough);
   compare("serial" + rough, "parallel windows 3" + rough);
+}
+
+// The same with the host's reference resident step in the device step's place (environment
+// HSGPU_RESIDENT_HOST, where no device is present): the fix's device step on one rank and its
+// gathered step on several (gather, run_atoms, results back, times of last collision shifted)
+// run without a GPU and give one rank's bits.
+TEST(FixHardSphereMPI, HostResidentStepAgreesWithSingleRank)
+{
+  if (HSGPU::GPU::device_count() > 0) GTEST_SKIP() << "a CUDA device is present (see above)";
+  setenv("HSGPU_RESIDENT_HOST", "1", 1);
+  const std::string rough =
+      " friction 0.5 0.3 friction/pair 1 2 0.3 0.0 wall/friction zlo 0.6 0.2 wall/friction zhi "
+      "0.2 -0.5";
+  // tc/slow no: every collision's restitution follows the times of last collision, which the
+  // gathered step shifts on each rank.
+  const std::vector<std::string> cases = {"parallel gpu yes|serial", "serial gpu yes|parallel",
+                                          "parallel gpu yes" + rough + "|parallel" + rough,
+                                          "parallel gpu yes tc 0.05 tc/slow no|serial tc 0.05 "
+                                          "tc/slow no"};
+  for (const std::string &orders : cases) {
+    const size_t bar = orders.find('|');
+    Snapshot s;
+    compare(orders.substr(0, bar), orders.substr(bar + 1), false, &s);
+    EXPECT_EQ(s.on_device + s.declined, 400.0) << orders;
+    EXPECT_GT(s.on_device, 300.0) << orders;
+  }
+  unsetenv("HSGPU_RESIDENT_HOST");
 }
 
 TEST(FixHardSphereMPI, SerialOrderOnAllRanksAgreesWithParallelOnOne)

@@ -29,13 +29,14 @@
    - capped:    the step needs more than p.maxevents events (the caller's cap decides which);
    - small_box: a periodic length holds fewer than three search cells.
 
-   Only one rank's bodies with no foreign nodes: on several ranks the caller uses the driver.
-   No LAMMPS, MPI or CUDA here. */
+   Only one rank's bodies with no foreign nodes (on several ranks the caller gathers them all on
+   one rank, or uses the driver).  No LAMMPS, MPI or CUDA here. */
 #ifndef HSGPU_ENGINE_RESIDENT_STEP_H
 #define HSGPU_ENGINE_RESIDENT_STEP_H
 
 #include "window_driver.h"
 
+#include <memory>
 #include <vector>
 
 namespace HSGPU {
@@ -150,6 +151,10 @@ namespace Collide {
    protected:
     bool serial = false;
   };
+
+  /// The host's reference implementation (engine/host_resident_step.cpp): the same contract
+  /// and results, through the host's step driver, for tests where no device is present.
+  std::unique_ptr<ResidentStep> make_host_resident_step();
 
   inline const char *resident_outcome_name(ResidentOutcome o)
   {
