@@ -273,6 +273,9 @@ class FixHardSphere : public Fix {
   int step_resident(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   int step_gathered(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   HSGPU::Collide::ResidentBox resident_box() const;
+  HSGPU::Collide::ResidentAtoms resident_atoms(int n, double *x, double *v, double *f, double *tl,
+                                               double *radius, double *mass, int *type,
+                                               tagint *id, double *omega, bool same) const;
   void count_resident(const HSGPU::Collide::ResidentReport &report);
   void report_overlap(int npush, int left);
   void prepare(double drift_dt);

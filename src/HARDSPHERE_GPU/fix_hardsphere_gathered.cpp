@@ -131,23 +131,10 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
   GatheredResult r = {};
   if (me == 0) {
     HSGPU::Collide::ResidentReport report;
-    HSGPU::Collide::ResidentAtoms a;
-    a.n = (int) n;
-    a.x = gath.x.data();
-    a.v = gath.v.data();
-    a.f = gath.f.data();
-    a.tlast = gath.tlast.data();
-    a.radius = gath.radius.data();
-    a.rmass = gath.rmass.data();
-    a.type = gath.type.data();
-    a.id = gath.id.data();
-    a.id_bytes = (int) sizeof(tagint);
-    a.ftm2v = force->ftm2v;
-    a.bound_floor = -1.0;    // the device works out the step budget
-    a.reach = reach;
-    a.never = NEVER_COLLIDED;
-    a.same_atoms = same;
-    a.omega = friction_on ? gath.omega.data() : nullptr;
+    HSGPU::Collide::ResidentAtoms a = resident_atoms(
+        (int) n, gath.x.data(), gath.v.data(), gath.f.data(), gath.tlast.data(),
+        gath.radius.data(), gath.rmass.data(), gath.type.data(), gath.id.data(),
+        friction_on ? gath.omega.data() : nullptr, same);
     a.results = &gath.results;    // the atoms with events listed, to go back to their ranks
     a.result_spin = &gath.rspin;
     try {

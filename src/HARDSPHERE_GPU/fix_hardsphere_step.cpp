@@ -1229,6 +1229,34 @@ HSGPU::Collide::ResidentBox FixHardSphere::resident_box() const
   return box;
 }
 
+/* A resident step's view of n atoms' arrays (x, v, f: 3 per atom; omega: rough spheres only,
+   else null), the step budget left to the device; same: the arrays other than x, v, f and
+   omega hold what the last step done there left in them (ResidentAtoms::same_atoms). */
+HSGPU::Collide::ResidentAtoms FixHardSphere::resident_atoms(int n, double *x, double *v,
+                                                            double *f, double *tl, double *radius,
+                                                            double *mass, int *type, tagint *id,
+                                                            double *omega, bool same) const
+{
+  HSGPU::Collide::ResidentAtoms a;
+  a.n = n;
+  a.x = x;
+  a.v = v;
+  a.f = f;
+  a.tlast = tl;
+  a.radius = radius;
+  a.rmass = mass;
+  a.type = type;
+  a.id = id;
+  a.id_bytes = (int) sizeof(tagint);
+  a.ftm2v = force->ftm2v;
+  a.bound_floor = -1.0;    // the device works out the step budget
+  a.reach = reach;
+  a.never = NEVER_COLLIDED;
+  a.same_atoms = same;
+  a.omega = omega;
+  return a;
+}
+
 /* The timers and counters of a resident step (one rank, or rank 0's gathered step as every
    rank got it); on `done` also the last step's figures. */
 void FixHardSphere::count_resident(const HSGPU::Collide::ResidentReport &report)
@@ -1281,23 +1309,11 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
   double t_gather = 0.0;
   try {
     if (whole) {
-      HSGPU::Collide::ResidentAtoms a;
-      a.n = atom->nlocal;
-      a.x = a.n ? atom->x[0] : nullptr;
-      a.v = a.n ? atom->v[0] : nullptr;
-      a.f = a.n ? atom->f[0] : nullptr;
-      a.tlast = tlast;
-      a.radius = atom->radius;
-      a.rmass = atom->rmass;
-      a.type = atom->type;
-      a.id = atom->tag;
-      a.id_bytes = (int) sizeof(tagint);
-      a.ftm2v = force->ftm2v;
-      a.bound_floor = -1.0;    // the device works out the step budget
-      a.reach = reach;
-      a.never = NEVER_COLLIDED;
-      a.same_atoms = same;
-      a.omega = (friction_on && a.n) ? atom->omega[0] : nullptr;    // rough spheres
+      const int n = atom->nlocal;
+      const HSGPU::Collide::ResidentAtoms a =
+          resident_atoms(n, n ? atom->x[0] : nullptr, n ? atom->v[0] : nullptr,
+                         n ? atom->f[0] : nullptr, tlast, atom->radius, atom->rmass, atom->type,
+                         atom->tag, (friction_on && n) ? atom->omega[0] : nullptr, same);
       resident->run_atoms(a, box, step_params(), wsettings, mine, report);
       // The budget's checks, and bound_floor for the host should the device decline.
       check_budget(report.vmax2, report.amax, report.rmax);

@@ -72,6 +72,20 @@ inline World random_world(int n, unsigned seed, double vscale, int lattice = 0)
   return w;
 }
 
+// The box of a world for a resident step (no reach limit).
+inline ResidentBox resident_box(const World &w)
+{
+  ResidentBox box{};
+  for (int d = 0; d < 3; ++d) {
+    box.lo[d] = w.lo[d];
+    box.prd[d] = w.prd[d];
+    box.periodic[d] = w.periodic[d];
+  }
+  box.overlap_tol = 1e-9;
+  box.reach = 1e300;
+  return box;
+}
+
 struct StepResult {
   Tally tally;
   int redo = 0;
@@ -156,14 +170,7 @@ inline StepResult step(World &w, double dt, const Order &order, CollisionBackend
       bodies = start;
       out.tally = Tally();
       const std::vector<double> bound(n, D);
-      ResidentBox box;
-      for (int d = 0; d < 3; ++d) {
-        box.lo[d] = w.lo[d];
-        box.prd[d] = w.prd[d];
-        box.periodic[d] = w.periodic[d];
-      }
-      box.overlap_tol = 1e-9;
-      box.reach = 1e300;
+      const ResidentBox box = resident_box(w);
       ResidentReport rep;
       resident->run(bodies.data(), bound.data(), n, box, p, order.windows, out.tally, rep);
       if (rep.outcome == ResidentOutcome::done) {

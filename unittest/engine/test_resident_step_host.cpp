@@ -71,17 +71,16 @@ Atoms atoms_of(const World &w, double dt)
   return a;
 }
 
-ResidentBox box_of(const World &w)
+// A gas's step parameters: restitution e of its one type, no cap that matters.
+Params gas_params(double dt, std::vector<double> &epair, double e)
 {
-  ResidentBox box{};
-  for (int d = 0; d < 3; ++d) {
-    box.lo[d] = w.lo[d];
-    box.prd[d] = w.prd[d];
-    box.periodic[d] = w.periodic[d];
-  }
-  box.overlap_tol = 1e-9;
-  box.reach = 1e300;
-  return box;
+  epair = {0, 0, 0, e};
+  Params p{};
+  p.dt = dt;
+  p.ntypes = 1;
+  p.epair = epair.data();
+  p.maxevents = 1000000;
+  return p;
 }
 
 }    // namespace
@@ -92,12 +91,8 @@ TEST(ResidentStepHost, RunAtomsListsWhatItWouldWrite)
 {
   World w = periodic_gas(7, 0.9);
   const double dt = 0.05;
-  std::vector<double> epair = {0, 0, 0, 0.9};
-  Params p{};
-  p.dt = dt;
-  p.ntypes = 1;
-  p.epair = epair.data();
-  p.maxevents = 1000000;
+  std::vector<double> epair;
+  const Params p = gas_params(dt, epair, 0.9);
   WindowSettings s{};
   std::unique_ptr<ResidentStep> wr = make_host_resident_step(), li = make_host_resident_step();
   Atoms a = atoms_of(w, dt);
@@ -114,8 +109,8 @@ TEST(ResidentStepHost, RunAtomsListsWhatItWouldWrite)
       ResidentAtoms va = a.view(dt), vb = b.view(dt);
       va.bound_floor = vb.bound_floor = floor;
       vb.results = &res;
-      wr->run_atoms(va, box_of(w), p, s, ta, ra);
-      li->run_atoms(vb, box_of(w), p, s, tb, rb);
+      wr->run_atoms(va, resident_box(w), p, s, ta, ra);
+      li->run_atoms(vb, resident_box(w), p, s, tb, rb);
       ASSERT_EQ(ra.outcome, rb.outcome) << "step " << step;
       if (ra.outcome == ResidentOutcome::done) break;
       ASSERT_EQ(ra.outcome, ResidentOutcome::excursion) << "step " << step;
@@ -167,12 +162,8 @@ TEST(ResidentStepHost, DeclinesWhatItCannotFinish)
 {
   World w = periodic_gas(5, 1.0);
   const double dt = 0.1;
-  std::vector<double> epair = {0, 0, 0, 1.0};
-  Params p{};
-  p.dt = dt;
-  p.ntypes = 1;
-  p.epair = epair.data();
-  p.maxevents = 1000000;
+  std::vector<double> epair;
+  Params p = gas_params(dt, epair, 1.0);
   WindowSettings s{};
   std::unique_ptr<ResidentStep> rs = make_host_resident_step();
   auto outcome = [&](World world, long maxevents) {
@@ -181,7 +172,7 @@ TEST(ResidentStepHost, DeclinesWhatItCannotFinish)
     ResidentAtoms v = a.view(dt);
     Tally t;
     ResidentReport r;
-    rs->run_atoms(v, box_of(world), p, s, t, r);
+    rs->run_atoms(v, resident_box(world), p, s, t, r);
     if (r.outcome != ResidentOutcome::done) {
       EXPECT_EQ(a.x, b.x);
       EXPECT_EQ(a.v, b.v);
