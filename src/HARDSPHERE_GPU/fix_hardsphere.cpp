@@ -56,6 +56,7 @@
 
 #include "fix_hardsphere_exchange.h"
 #include "gpu/collision_backend_cuda.h"
+#include "gpu/peer_inputs.h"
 #include "gpu/resident_step_cuda.h"
 #include "gpu/device_info.cuh"
 #include "gpu_device_choice.h"
@@ -188,6 +189,7 @@ FixHardSphere::~FixHardSphere()
   atom->delete_callback(id, Atom::GROW);
   atom->delete_callback(id, Atom::RESTART);
   resident.reset();    // lets go of the atom arrays it keeps page-locked
+  peer.reset();        // the same
   memory->destroy(tlast);
   delete exchange;
   delete[] extlist;
@@ -679,6 +681,7 @@ void FixHardSphere::setup_backend()
   if (device == backend_device && backend) return;
   backend.reset();
   resident.reset();
+  peer.reset();
   gather_step = false;
   if (device >= 0) {
     try {
@@ -692,6 +695,16 @@ void FixHardSphere::setup_backend()
         resident = HSGPU::Collide::make_cuda_resident_step(device);
         resident->set_serial(serial_order);
       }
+      // The other ranks copy their atoms to rank 0's device where they can (CUDA IPC; else,
+      // decided at the first step, through MPI).
+      gath.ipc = gather_step && !std::getenv("HSGPU_GATHER_MPI");
+      if (gath.ipc && comm->me != 0) {
+        try {
+          peer.reset(new HSGPU::GPU::PeerInputs(device));
+        } catch (std::exception &e) {
+          gath.why = e.what();
+        }
+      }
     } catch (std::exception &e) {
       error->one(FLERR, "Fix hardsphere: cannot use CUDA device {}: {}", device, e.what());
     }
@@ -701,6 +714,7 @@ void FixHardSphere::setup_backend()
     // resident step takes the device step's place, so that the code around it runs.
     if (gpu_requested && std::getenv("HSGPU_RESIDENT_HOST")) {
       gather_step = comm->nprocs > 1 && gpu_gather && igroup == 0;
+      gath.ipc = gather_step && !std::getenv("HSGPU_GATHER_MPI");    // refused at the first step
       if (comm->nprocs == 1 || (gather_step && comm->me == 0)) {
         resident = HSGPU::Collide::make_host_resident_step();
         resident->set_serial(serial_order);
@@ -874,6 +888,7 @@ void FixHardSphere::grow_arrays(int nmax)
 {
   // LAMMPS has grown (moved) its per-atom arrays: the device step lets go of the old ones.
   if (resident) resident->forget_host_arrays();
+  if (peer) peer->forget_host_arrays();
   resident_same = false;
   memory->grow(tlast, nmax, "hardsphere:tlast");
   // The per-atom virial is computed in post_integrate, before the atoms of that step are

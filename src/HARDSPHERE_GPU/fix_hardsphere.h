@@ -24,7 +24,14 @@
 #include "engine/window_driver.h"
 
 #include <memory>
+#include <string>
 #include <vector>
+
+namespace HSGPU {
+namespace GPU {
+  class PeerInputs;
+}
+}    // namespace HSGPU
 
 namespace LAMMPS_NS {
 
@@ -231,7 +238,13 @@ class FixHardSphere : public Fix {
     std::vector<HSGPU::Collide::ResidentResult> results;    // the atoms with events (rank 0)
     std::vector<double> rspin;                              // and their spins (rough spheres)
     std::vector<double> send, recv;                         // the results, by rank
+    bool ipc = true;              // x, v, f straight to rank 0's device (share_inputs())
+    std::vector<char> handles;    // rank 0's device buffers for them
+    std::string why;              // why a rank could not
+    double t_put = 0.0, t_wait = 0.0;    // this run: seconds copying them, and waiting for all
   } gath;
+  // The gathered step's x, v and f copied from this rank (not rank 0) to rank 0's device.
+  std::unique_ptr<HSGPU::GPU::PeerInputs> peer;
   class LammpsExchange *exchange;
   int fwd_nval;                     // forward communication: 0 the state (NFWD), else xfwd's nval
   std::vector<double> xfwd;         // per-atom values for the driver's to_foreign
@@ -272,6 +285,7 @@ class FixHardSphere : public Fix {
   int build(double drift_dt, bool collect_pushes);
   int step_resident(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   int step_gathered(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
+  bool share_inputs(long n, int nlocal, const double *x, const double *v, const double *f);
   HSGPU::Collide::ResidentBox resident_box() const;
   HSGPU::Collide::ResidentAtoms resident_atoms(int n, double *x, double *v, double *f, double *tl,
                                                double *radius, double *mass, int *type,

@@ -21,10 +21,14 @@
 #include "error.h"
 #include "force.h"
 #include "update.h"
+#include "utils.h"
+
+#include "gpu/peer_inputs.h"
 
 #include <algorithm>
 #include <climits>
 #include <exception>
+#include <stdexcept>
 #include <mpi.h>
 
 using namespace LAMMPS_NS;
@@ -43,6 +47,76 @@ struct GatheredResult {
 constexpr int NRESULT = (int) (sizeof(GatheredResult) / sizeof(double));
 
 }    // namespace
+
+/* Each rank's x, v and f (nlocal atoms) into rank 0's device buffers for the step of all n
+   atoms, where every rank can open them (ResidentStep::share_inputs(), GPU::PeerInputs: CUDA
+   IPC, ranks of one node).  Returns whether they are there; false on every rank where any rank
+   could not (the atoms then go through MPI, and so for the rest of the run, with a note in
+   the log).  HSGPU_GATHER_MPI in the environment: never tried. */
+bool FixHardSphere::share_inputs(long n, int nlocal, const double *x, const double *v,
+                                 const double *f)
+{
+  if (!gath.ipc) return false;
+  const int me = comm->me;
+  // Rank 0's handles to everyone (a fixed size: three CUDA IPC handles, or none).
+  int ok = 1;
+  std::vector<char> &h = gath.handles;
+  int hbytes = 0;
+  if (me == 0) {
+    try {
+      ok = resident->share_inputs(n, h) ? 1 : 0;
+    } catch (std::exception &) {
+      ok = 0;
+    }
+    hbytes = ok ? (int) h.size() : 0;
+  }
+  MPI_Bcast(&hbytes, 1, MPI_INT, 0, world);
+  if (hbytes > 0) {
+    h.resize(hbytes);
+    MPI_Bcast(h.data(), hbytes, MPI_CHAR, 0, world);
+  }
+  count_collective(sizeof(int) + hbytes);
+  ok = hbytes > 0;
+  // Each rank's own atoms, at its offset (the ranks' atoms in rank order).
+  long first = 0;
+  for (int p = 0; p < me; ++p) first += gath.head[2 * p];
+  const double t0 = MPI_Wtime();
+  if (ok) {
+    try {
+      if (me == 0) {
+        resident->put_inputs(first, nlocal, x, v, f);
+      } else {
+        if (!peer) throw std::runtime_error("no device for the gathered step's inputs");
+        peer->open(h);
+        peer->put(first, nlocal, x, v, f);
+      }
+    } catch (std::exception &e) {
+      ok = 0;
+      gath.why = e.what();
+    }
+  }
+  // Also the barrier after which rank 0's device holds every rank's atoms.
+  const double t1 = MPI_Wtime();
+  int all = 0;
+  MPI_Allreduce(&ok, &all, 1, MPI_INT, MPI_MIN, world);
+  count_collective(sizeof(int));
+  gath.t_put += t1 - t0;
+  gath.t_wait += MPI_Wtime() - t1;
+  if (all) return true;
+  gath.ipc = false;
+  int who = ok ? comm->nprocs : me, first_bad = 0;
+  MPI_Allreduce(&who, &first_bad, 1, MPI_INT, MPI_MIN, world);
+  if (first_bad == me && me != 0)
+    utils::logmesg(lmp, "Fix hardsphere: rank {} cannot copy its atoms to rank 0's device ({}); "
+                        "they go through rank 0's host (MPI) for the rest of the run\n",
+                   me, gath.why);
+  if (me == 0 && first_bad == 0)
+    utils::logmesg(lmp, "Fix hardsphere: rank 0's device does not share its buffers{}{}; the "
+                        "atoms go through rank 0's host (MPI) for the rest of the run\n",
+                   gath.why.empty() ? "" : ": ", gath.why);
+  (void) n;
+  return false;
+}
 
 /* The step on rank 0's device over every rank's atoms.  Returns 2 where the device did it (the
    atoms' arrays hold the results), else 0 with nothing changed. */
@@ -113,9 +187,14 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
   double *x0 = nlocal ? atom->x[0] : nullptr, *v0 = nlocal ? atom->v[0] : nullptr;
   double *f0 = nlocal ? atom->f[0] : nullptr;
   double *w0 = (friction_on && nlocal) ? atom->omega[0] : nullptr;
-  gather(x0, 3, MPI_DOUBLE, gath.x.data());
-  gather(v0, 3, MPI_DOUBLE, gath.v.data());
-  gather(f0, 3, MPI_DOUBLE, gath.f.data());
+  // x, v and f straight into rank 0's device where every rank can reach it (one node, CUDA
+  // IPC): each rank copies its own atoms there, all at once; else through rank 0's host.
+  const bool shared = share_inputs(n, nlocal, x0, v0, f0);
+  if (!shared) {
+    gather(x0, 3, MPI_DOUBLE, gath.x.data());
+    gather(v0, 3, MPI_DOUBLE, gath.v.data());
+    gather(f0, 3, MPI_DOUBLE, gath.f.data());
+  }
   if (friction_on) gather(w0, 3, MPI_DOUBLE, gath.omega.data());
   // The rest only where some rank's atoms moved in its arrays (the device keeps its copies).
   if (!same) {
@@ -135,6 +214,7 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
         (int) n, gath.x.data(), gath.v.data(), gath.f.data(), gath.tlast.data(),
         gath.radius.data(), gath.rmass.data(), gath.type.data(), gath.id.data(),
         friction_on ? gath.omega.data() : nullptr, same);
+    a.inputs_shared = shared;
     a.results = &gath.results;    // the atoms with events listed, to go back to their ranks
     a.result_spin = &gath.rspin;
     try {

@@ -46,6 +46,7 @@
 #include "core/collision_step.h"
 #include "lmp_compat.h"
 #include "fix_hardsphere_exchange.h"
+#include "gpu/peer_inputs.h"
 #include "mpi_allgather.h"
 
 #include <algorithm>
@@ -1052,6 +1053,7 @@ void FixHardSphere::setup(int vflag)
   // Commands between runs may have moved the atom arrays the device step keeps page-locked,
   // or changed them.
   if (resident) resident->forget_host_arrays();
+  if (peer) peer->forget_host_arrays();
   resident_same = false;
   // The virial and the collision count are the last step's (or the restart file's): the
   // run's first thermo output shows the collisions' share of the pressure, as every later
@@ -1434,7 +1436,17 @@ void FixHardSphere::post_run()
   double mine[2] = {r.bytes, r.messages}, all[2] = {0.0, 0.0};
   if (comm->nprocs > 1) MPI_Allreduce(mine, all, 2, MPI_DOUBLE, MPI_SUM, world);
   const double bytes = all[0], messages = all[1];
+  // The gathered step's copies of x, v, f to rank 0's device: the slowest rank's time copying,
+  // and the longest wait of a rank for the others.
+  double tputs[2] = {gath.t_put, gath.t_wait}, tmax[2] = {0.0, 0.0};
+  if (gather_step) MPI_Reduce(tputs, tmax, 2, MPI_DOUBLE, MPI_MAX, 0, world);
+  gath.t_put = gath.t_wait = 0.0;
   if (comm->me != 0) return;
+  if (gather_step && tmax[0] > 0.0)
+    utils::logmesg(lmp,
+                   "Fix hardsphere: x, v and f copied by each rank to rank 0's device: {:.4g} s "
+                   "copying and {:.4g} s waiting for the other ranks (the most of any rank)\n",
+                   tmax[0], tmax[1]);
   const double n = (double) r.steps;
   utils::logmesg(lmp,
                  "Fix hardsphere ({} order, {} backend): {} steps, {:.6g} collisions and {:.6g} "

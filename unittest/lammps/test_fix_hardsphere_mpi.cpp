@@ -225,9 +225,11 @@ TEST(FixHardSphereMPI, CudaBackendOnAllRanksAgreesWithSingleRankSerial)
 // gathered on rank 0 (gpu/gather yes, the default); one rank's bits in both orders, with rough
 // spheres, and with tc/slow no (every collision's restitution follows the times of last
 // collision, which the gathered step shifts on each rank).  At least `least` of the 400 steps
-// on the device, and on several ranks the gathers counted as the fix's communication.
-void check_device_steps(double least)
+// on the device, and on several ranks the gathers counted as the fix's communication.  Returns
+// the bytes the fix's communication brought to all ranks in the cases' last steps.
+double check_device_steps(double least)
 {
+  double bytes = 0.0;
   const std::string rough =
       " friction 0.5 0.3 friction/pair 1 2 0.3 0.0 wall/friction zlo 0.6 0.2 wall/friction zhi "
       "0.2 -0.5";
@@ -247,14 +249,28 @@ void check_device_steps(double least)
     if (np > 1) {
       EXPECT_GT(s.comm[2], 0.0) << orders;
     }
-    if (me == 0) std::printf("[ DEVICE   ] %.0f of 400 steps whole on the device\n", s.on_device);
+    if (me == 0)
+      std::printf("[ DEVICE   ] %.0f of 400 steps whole on the device, %.0f bytes received in "
+                  "the last\n",
+                  s.on_device, s.comm[2]);
+    bytes += s.comm[2];
   }
+  return bytes;
 }
 
 TEST(FixHardSphereMPI, CudaGatheredStepAgreesWithSingleRank)
 {
   if (HSGPU::GPU::device_count() == 0) GTEST_SKIP() << "no CUDA device on this machine";
-  check_device_steps(390.0);    // none handed back in this system
+  // Each rank's x, v and f straight to rank 0's device (CUDA IPC, one node), and through MPI.
+  const double ipc = check_device_steps(390.0);    // none handed back in this system
+  setenv("HSGPU_GATHER_MPI", "1", 1);
+  const double mpi = check_device_steps(390.0);
+  unsetenv("HSGPU_GATHER_MPI");
+  int np = 1;
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  if (np > 1) {
+    EXPECT_LT(ipc, 0.5 * mpi) << "x, v and f went through MPI";
+  }
 }
 
 // The same with the host's reference resident step in the device step's place (environment

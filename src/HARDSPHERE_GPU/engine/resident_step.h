@@ -114,6 +114,9 @@ namespace Collide {
     // caller that sends them on (FixHardSphere's step of several ranks on rank 0's device).
     std::vector<ResidentResult> *results = nullptr;
     std::vector<double> *result_spin = nullptr;
+    // x, v and f are in the step's own buffers already (share_inputs(), put there by the
+    // processes that hold the atoms, and put_inputs()): x, v and f here are not read.
+    bool inputs_shared = false;
     // The caller vouches that tlast, radius, rmass, type and id hold what they held at the end
     // of the last run_atoms() that returned `done` (same atoms in the same order, nothing
     // written to them since): the step may then keep its device copies instead of copying
@@ -132,6 +135,28 @@ namespace Collide {
     /// per-atom arrays, a run ends): the step lets go of any hold it keeps on them (the CUDA
     /// step page-locks them in place between steps).
     virtual void forget_host_arrays() {}
+    /// The gathered step of several ranks on one node: reserves the step's buffers of x, v and
+    /// f for n atoms and writes handles to them, which other processes of the node can open
+    /// (GPU::PeerInputs) to copy their atoms' x, v and f in place, into `handles` (opaque
+    /// bytes, the same while the buffers stay where they are).  False where the step has no
+    /// such buffers (the host's reference step) or the device refuses; then nothing changed.
+    virtual bool share_inputs(long n, std::vector<char> &handles)
+    {
+      (void) n;
+      handles.clear();
+      return false;
+    }
+    /// Copies count atoms' x, v and f (3 each) from this process into atoms [first, first +
+    /// count) of the buffers of share_inputs(), and waits for the copy.
+    virtual void put_inputs(long first, long count, const double *x, const double *v,
+                            const double *f)
+    {
+      (void) first;
+      (void) count;
+      (void) x;
+      (void) v;
+      (void) f;
+    }
     /// The step of the atoms in `a` (start points x - v dt), as run() over the bodies built
     /// from them, with the step bounds of ResidentAtoms.  On `done` x and v of the atoms that
     /// had events are those at the step end, the others' are as given, every atom's tlast is

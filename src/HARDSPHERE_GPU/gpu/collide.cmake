@@ -8,7 +8,8 @@
 set(_hsgpu_collide_dir ${CMAKE_CURRENT_LIST_DIR})
 if(HSGPU_HAVE_CUDA)
   set(_hsgpu_collide_sources ${_hsgpu_collide_dir}/core_device_check.cu
-      ${_hsgpu_collide_dir}/collision_backend_cuda.cu ${_hsgpu_collide_dir}/resident_step_cuda.cu)
+      ${_hsgpu_collide_dir}/collision_backend_cuda.cu ${_hsgpu_collide_dir}/resident_step_cuda.cu
+      ${_hsgpu_collide_dir}/peer_inputs.cu)
 else()
   set(_hsgpu_collide_sources ${_hsgpu_collide_dir}/core_device_check_none.cpp
       ${_hsgpu_collide_dir}/collision_backend_none.cpp)

@@ -1,7 +1,8 @@
-/* HARDSPHERE_GPU collision engine: the CUDA backend and resident step for a build without
-   CUDA, see collision_backend_cuda.h and resident_step_cuda.h.  Asking for one throws, so
-   callers fall back to the CPU backend. */
+/* HARDSPHERE_GPU collision engine: the CUDA backend, resident step and peer inputs for a build
+   without CUDA, see collision_backend_cuda.h, resident_step_cuda.h and peer_inputs.h.  Asking
+   for one throws, so callers fall back to the CPU backend (or to MPI). */
 #include "collision_backend_cuda.h"
+#include "peer_inputs.h"
 #include "resident_step_cuda.h"
 
 #include "gpu_error.h"
@@ -25,4 +26,25 @@ namespace Collide {
   }
 
 }    // namespace Collide
+
+namespace GPU {
+
+  struct PeerInputs::Impl {};
+
+  PeerInputs::PeerInputs(int) : impl(nullptr)
+  {
+    throw Error("built without CUDA");
+  }
+  PeerInputs::~PeerInputs() = default;
+  void PeerInputs::open(const std::vector<char> &)
+  {
+    throw Error("built without CUDA");
+  }
+  void PeerInputs::put(long, long, const double *, const double *, const double *)
+  {
+    throw Error("built without CUDA");
+  }
+  void PeerInputs::forget_host_arrays() {}
+
+}    // namespace GPU
 }    // namespace HSGPU

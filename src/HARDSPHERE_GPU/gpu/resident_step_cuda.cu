@@ -1100,6 +1100,40 @@ namespace Collide {
       }
 
      public:
+      bool share_inputs(long count, std::vector<char> &handles) override
+      {
+        handles.clear();
+        cuda_check(cudaSetDevice(device), "cudaSetDevice");
+        DeviceBuffer *b[3] = {&d_ax, &d_av, &d_af};
+        cudaIpcMemHandle_t h[3];
+        for (int k = 0; k < 3; ++k) {
+          b[k]->reserve((size_t) 3 * count * sizeof(double) + 8, "cudaMalloc(atoms)");
+          if (cudaIpcGetMemHandle(&h[k], b[k]->ptr) != cudaSuccess) {
+            (void) cudaGetLastError();
+            return false;
+          }
+        }
+        handles.assign(reinterpret_cast<const char *>(h), reinterpret_cast<const char *>(h) + sizeof(h));
+        return true;
+      }
+
+      void put_inputs(long first, long count, const double *x, const double *v,
+                      const double *f) override
+      {
+        if (count <= 0) return;
+        cuda_check(cudaSetDevice(device), "cudaSetDevice");
+        DeviceBuffer *b[3] = {&d_ax, &d_av, &d_af};
+        const double *src[3] = {x, v, f};
+        const size_t bytes = (size_t) 3 * count * sizeof(double);
+        for (int k = 0; k < 3; ++k) {
+          lock(locked[k], src[k], bytes);    // this rank's own arrays, page-locked in place
+          cuda_check(cudaMemcpyAsync(b[k]->as<double>() + 3 * first, src[k], bytes,
+                                     cudaMemcpyHostToDevice, stream),
+                     "cudaMemcpy(atoms)");
+        }
+        cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(atoms)");
+      }
+
       void forget_host_arrays() override
       {
         cudaSetDevice(device);
@@ -1941,6 +1975,7 @@ namespace Collide {
       kept = false;    // until this step is done
       cuda_check(cudaEventRecord(ev_up0, stream), "cudaEventRecord");
       for (int k = 0; k < NLOCKED; ++k) {
+        if (a.inputs_shared && k < FIRST_KEPT) continue;    // x, v, f: in place already
         lock(locked[k], arrays[k].h, arrays[k].bytes);
         if (locked[k].p) ++prof.locked;
         if (keep && k >= FIRST_KEPT) continue;

@@ -1,0 +1,44 @@
+/* HARDSPHERE_GPU: the other side of ResidentStep::share_inputs() (engine/resident_step.h).
+
+   fix hardsphere's gathered step of several ranks runs on rank 0's device; on one node each
+   other rank copies its atoms' x, v and f straight into that device's buffers (CUDA IPC)
+   instead of sending them to rank 0's host through MPI.  PeerInputs opens the buffers named by
+   rank 0's handles on this process's device and copies into them.
+
+   Plain C++: no CUDA types.  Built from peer_inputs.cu with CUDA; without, from
+   collision_backend_none.cpp, where every call throws (the caller then gathers through MPI). */
+#ifndef HSGPU_GPU_PEER_INPUTS_H
+#define HSGPU_GPU_PEER_INPUTS_H
+
+#include <vector>
+
+namespace HSGPU {
+namespace GPU {
+
+  class PeerInputs {
+   public:
+    /// On CUDA device `device` (this process's); throws HSGPU::GPU::Error where it cannot.
+    explicit PeerInputs(int device);
+    ~PeerInputs();
+    PeerInputs(const PeerInputs &) = delete;
+    PeerInputs &operator=(const PeerInputs &) = delete;
+
+    /// Opens the three buffers of `handles` (ResidentStep::share_inputs()'s bytes) unless they
+    /// are the ones open now; throws where the driver refuses.
+    void open(const std::vector<char> &handles);
+    /// Copies count atoms' x, v and f (3 doubles each) into atoms [first, first + count) of the
+    /// open buffers and waits.  The host arrays are page-locked in place and kept so until
+    /// forget_host_arrays() or they move.
+    void put(long first, long count, const double *x, const double *v, const double *f);
+    /// The host arrays given to put() may move or be freed.
+    void forget_host_arrays();
+
+   private:
+    struct Impl;
+    Impl *impl;
+  };
+
+}    // namespace GPU
+}    // namespace HSGPU
+
+#endif
