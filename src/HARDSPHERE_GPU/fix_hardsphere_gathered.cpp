@@ -107,12 +107,14 @@ bool FixHardSphere::share_inputs(long n, int nlocal, const double *x, const doub
   int who = ok ? comm->nprocs : me, first_bad = 0;
   MPI_Allreduce(&who, &first_bad, 1, MPI_INT, MPI_MIN, world);
   if (first_bad == me && me != 0)
-    utils::logmesg(lmp, "Fix hardsphere: rank {} cannot copy its atoms to rank 0's device ({}); "
-                        "they go through rank 0's host (MPI) for the rest of the run\n",
+    utils::logmesg(lmp,
+                   "Fix hardsphere: rank {} cannot copy its atoms to rank 0's device ({}); "
+                   "they go through rank 0's host (MPI) for the rest of the run\n",
                    me, gath.why);
   if (me == 0 && first_bad == 0)
-    utils::logmesg(lmp, "Fix hardsphere: rank 0's device does not share its buffers{}{}; the "
-                        "atoms go through rank 0's host (MPI) for the rest of the run\n",
+    utils::logmesg(lmp,
+                   "Fix hardsphere: rank 0's device does not share its buffers{}{}; the "
+                   "atoms go through rank 0's host (MPI) for the rest of the run\n",
                    gath.why.empty() ? "" : ": ", gath.why);
   (void) n;
   return false;
@@ -210,10 +212,10 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
   GatheredResult r = {};
   if (me == 0) {
     HSGPU::Collide::ResidentReport report;
-    HSGPU::Collide::ResidentAtoms a = resident_atoms(
-        (int) n, gath.x.data(), gath.v.data(), gath.f.data(), gath.tlast.data(),
-        gath.radius.data(), gath.rmass.data(), gath.type.data(), gath.id.data(),
-        friction_on ? gath.omega.data() : nullptr, same);
+    HSGPU::Collide::ResidentAtoms a =
+        resident_atoms((int) n, gath.x.data(), gath.v.data(), gath.f.data(), gath.tlast.data(),
+                       gath.radius.data(), gath.rmass.data(), gath.type.data(), gath.id.data(),
+                       friction_on ? gath.omega.data() : nullptr, same);
     a.inputs_shared = shared;
     a.results = &gath.results;    // the atoms with events listed, to go back to their ranks
     a.result_spin = &gath.rspin;
