@@ -116,7 +116,6 @@ bool FixHardSphere::share_inputs(long n, int nlocal, const double *x, const doub
                    "Fix hardsphere: rank 0's device does not share its buffers{}{}; the "
                    "atoms go through rank 0's host (MPI) for the rest of the run\n",
                    gath.why.empty() ? "" : ": ", gath.why);
-  (void) n;
   return false;
 }
 
