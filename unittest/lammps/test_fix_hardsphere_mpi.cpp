@@ -26,9 +26,9 @@ struct Snapshot {
   std::vector<double> x, v, w;
   double f[6];
   double press;
-  double sred[6], pvir[6], wsum[3];    // per-atom virial: sums, -V x the global one, weighted
-  double dmean = 0.0, mmean = 0.0;     // mean |sum - global| and mean |sum| over the steps
-  double comm[3];                      // f_hs[24 ... 26]: the last step's communication
+  double sred[6], pvir[6], wsum[3];          // per-atom virial: sums, -V x the global one, weighted
+  double dmean = 0.0, mmean = 0.0;           // mean |sum - global| and mean |sum| over the steps
+  double comm[3];                            // f_hs[24 ... 26]: the last step's communication
   double on_device = 0.0, declined = 0.0;    // f_hs[18], f_hs[19]: steps whole on a device
 };
 
@@ -36,8 +36,11 @@ struct Snapshot {
 // Atoms are placed one by one and their velocities set from their IDs, so that the initial
 // state does not depend on the decomposition (create_atoms on a region numbers atoms per rank,
 // velocity create rescales with a sum over ranks).
+// extra: commands before the run; midway: where given, the run is split in two halves with
+// these commands between them.
 Snapshot run_on(MPI_Comm comm, const std::string &order, int steps, bool pair_gravity = false,
-                bool peratom = false)
+                bool peratom = false, const std::vector<std::string> &extra = {},
+                const std::vector<std::string> &midway = {})
 {
   Lammps lmp(comm);
   lmp.commands({"units lj", "atom_style sphere", "atom_modify map array", "boundary p p f",
@@ -78,7 +81,14 @@ Snapshot run_on(MPI_Comm comm, const std::string &order, int steps, bool pair_gr
          "fix avg all ave/time 1 " + std::to_string(steps) + " " + std::to_string(steps) +
              " v_d v_m",
          "thermo_style custom step c_p c_red[1] c_wred[1]"});
-  lmp.commands({"run " + std::to_string(steps)});
+  lmp.commands(extra);
+  if (midway.empty()) {
+    lmp.commands({"run " + std::to_string(steps)});
+  } else {
+    lmp.commands({"run " + std::to_string(steps / 2)});
+    lmp.commands(midway);
+    lmp.commands({"run " + std::to_string(steps - steps / 2)});
+  }
   Snapshot s;
   if (peratom) {
     const double vol = 11.0 * 11.0 * 11.0;
@@ -271,6 +281,45 @@ TEST(FixHardSphereMPI, CudaGatheredStepAgreesWithSingleRank)
   if (np > 1) {
     EXPECT_LT(ipc, 0.5 * mpi) << "x, v and f went through MPI";
   }
+}
+
+// The gathered step where the atoms' arrays change under it: atoms sorted every 5 steps, per-
+// atom virial asked for every 7 steps (those steps run on the host, the next one gathers every
+// array again), a tenth of the atoms deleted midway (compress no: delete_atoms's default
+// renumbers the atoms rank by rank, and IDs order simultaneous events).  With the host's reference
+// step in the device step's place (it reads every array it is given, so stale copies on rank 0
+// would show), against one rank without it, bit for bit.
+TEST(FixHardSphereMPI, HostResidentGatheredStepFollowsChangedArrays)
+{
+  if (HSGPU::GPU::device_count() > 0) GTEST_SKIP() << "a CUDA device is present";
+  int me = 0, np = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  const std::vector<std::string> extra = {
+      "atom_modify sort 5 1.0", "compute sa all stress/atom NULL fix",
+      "compute sred all reduce sum c_sa[1] c_sa[3]", "fix sav all ave/time 7 1 7 c_sred[1]"};
+  const std::vector<std::string> midway = {"group gone id 1:500:10",
+                                           "delete_atoms group gone compress no"};
+  setenv("HSGPU_RESIDENT_HOST", "1", 1);
+  const Snapshot world = run_on(MPI_COMM_WORLD, "parallel gpu yes tc 0.05 tc/slow no", 300, false,
+                                false, extra, midway);
+  unsetenv("HSGPU_RESIDENT_HOST");
+  if (me == 0) {
+    const Snapshot single =
+        run_on(MPI_COMM_SELF, "serial tc 0.05 tc/slow no", 300, false, false, extra, midway);
+    ASSERT_EQ(world.x.size(), single.x.size());
+    EXPECT_EQ(world.x.size(), (size_t) 3 * 450);
+    EXPECT_EQ(max_abs_diff(world.x, single.x), 0.0);
+    EXPECT_EQ(max_abs_diff(world.v, single.v), 0.0);
+    EXPECT_EQ(world.f[1], single.f[1]) << "collisions in total";
+    // Most steps on the "device"; those with per-atom virial (every seventh) on the host.
+    EXPECT_GT(world.on_device, 200.0);
+    EXPECT_LE(world.on_device, 300.0 - 42.0);
+    std::printf("[ MPI      ] %d ranks, gathered host reference step with sorts, per-atom virial "
+                "and deletions: %.0f collisions, %.0f of 300 steps on the device\n",
+                np, single.f[1], world.on_device);
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
 }
 
 // The same with the host's reference resident step in the device step's place (environment
@@ -469,8 +518,7 @@ Spanning run_dense(MPI_Comm comm, const std::string &kind, const std::string &or
   else
     lmp.commands({"fix g all gravity 1.0 vector 0 0 -1",
                   "fix hs all hardsphere restitution 0.7 wall zlo 0.7 reach 0.5 spanning " +
-                      spanning + " order " +
-                      order +
+                      spanning + " order " + order +
                       (kind == "rough" ? " friction 0.5 0.2 wall/friction zlo 0.4 0.0" : "")});
   const std::string ns = std::to_string(steps);
   lmp.commands({"timestep 0.01", "thermo 0",
