@@ -671,6 +671,20 @@ double FixHardSphere::inserted_radius()
   return r;
 }
 
+/* Whether all ranks share one node's memory (MPI's shared-memory split): the gathered step's
+   copies straight to rank 0's device are tried only then. */
+bool FixHardSphere::one_node()
+{
+  MPI_Comm node;
+  MPI_Comm_split_type(world, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
+  int size = 0;
+  MPI_Comm_size(node, &size);
+  MPI_Comm_free(&node);
+  int all = 0, mine = size == comm->nprocs ? 1 : 0;
+  MPI_Allreduce(&mine, &all, 1, MPI_INT, MPI_MIN, world);
+  return all == 1;
+}
+
 /* The collision backend: CUDA on this rank's device with 'gpu yes' (the device policy of
    gpu_device_choice.h, shared with pair gravity: where any rank has no usable device all ranks
    run the CPU backend and rank 0 warns), else the CPU one. */
@@ -697,7 +711,7 @@ void FixHardSphere::setup_backend()
       }
       // The other ranks copy their atoms to rank 0's device where they can (CUDA IPC; else,
       // decided at the first step, through MPI).
-      gath.ipc = gather_step && !std::getenv("HSGPU_GATHER_MPI");
+      gath.ipc = gather_step && !std::getenv("HSGPU_GATHER_MPI") && one_node();
       if (gath.ipc && comm->me != 0) {
         try {
           peer.reset(new HSGPU::GPU::PeerInputs(device));
@@ -714,7 +728,7 @@ void FixHardSphere::setup_backend()
     // resident step takes the device step's place, so that the code around it runs.
     if (gpu_requested && std::getenv("HSGPU_RESIDENT_HOST")) {
       gather_step = comm->nprocs > 1 && gpu_gather && igroup == 0;
-      gath.ipc = gather_step && !std::getenv("HSGPU_GATHER_MPI");    // refused at the first step
+      gath.ipc = gather_step && !std::getenv("HSGPU_GATHER_MPI") && one_node();    // refused later
       if (comm->nprocs == 1 || (gather_step && comm->me == 0)) {
         resident = HSGPU::Collide::make_host_resident_step();
         resident->set_serial(serial_order);
