@@ -700,11 +700,11 @@ void FixHardSphere::setup_backend()
   if (device >= 0) {
     try {
       backend = HSGPU::Collide::make_cuda_backend(device);
-      // One rank: whole steps on the device, in either order.  Several with group all and
-      // gpu/gather yes: rank 0's device runs each step over every rank's atoms
+      // One rank: whole steps on the device, in either order.  Several with gpu/gather yes:
+      // rank 0's device runs each step over every rank's atoms of the group
       // (step_gathered()); with gpu/gather no each rank's host driver hands its device the
       // windows' groups.
-      gather_step = comm->nprocs > 1 && gpu_gather && igroup == 0;
+      gather_step = comm->nprocs > 1 && gpu_gather;
       if (comm->nprocs == 1 || (gather_step && comm->me == 0)) {
         resident = HSGPU::Collide::make_cuda_resident_step(device);
         resident->set_serial(serial_order);
@@ -727,7 +727,7 @@ void FixHardSphere::setup_backend()
     // Tests (HSGPU_RESIDENT_HOST set): where gpu yes finds no device, the host's reference
     // resident step takes the device step's place, so that the code around it runs.
     if (gpu_requested && std::getenv("HSGPU_RESIDENT_HOST")) {
-      gather_step = comm->nprocs > 1 && gpu_gather && igroup == 0;
+      gather_step = comm->nprocs > 1 && gpu_gather;
       gath.ipc = gather_step && !std::getenv("HSGPU_GATHER_MPI") && one_node();    // refused later
       if (comm->nprocs == 1 || (gather_step && comm->me == 0)) {
         resident = HSGPU::Collide::make_host_resident_step();

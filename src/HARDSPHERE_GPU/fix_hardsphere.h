@@ -222,7 +222,7 @@ class FixHardSphere : public Fix {
   // A fix that changes radius, mass or type in place (fix adapt, type swaps): those arrays go
   // to the device every step.
   bool sizes_vary = false;
-  // gpu yes on several ranks with group all and gpu/gather yes: each step's atoms gathered on
+  // gpu yes on several ranks with gpu/gather yes: each step's atoms (of the group) gathered on
   // rank 0, whose `resident` step runs it (step_gathered(); the same on every rank).
   bool gather_step = false;
   // Rank 0's copies of all atoms for that step, in rank order (grown, never shrunk: the device
@@ -242,7 +242,22 @@ class FixHardSphere : public Fix {
     std::vector<char> handles;    // rank 0's device buffers for them
     std::string why;              // why a rank could not
     double t_put = 0.0, t_wait = 0.0;    // this run: seconds copying them, and waiting for all
+    // With a group other than all: this rank's group atoms (indices here) and their arrays.
+    std::vector<int> lidx;
+    std::vector<double> px, pv, pf, pomega, ptlast, pradius, prmass;
+    std::vector<int> ptype;
+    std::vector<tagint> pid;
+    int proom = 0;
   } gath;
+  // What a rank sends to the gathered step (n atoms' arrays).
+  struct Source {
+    int n = 0;
+    double *x = nullptr, *v = nullptr, *f = nullptr, *omega = nullptr, *tlast = nullptr;
+    double *radius = nullptr, *rmass = nullptr;
+    int *type = nullptr;
+    tagint *id = nullptr;
+  };
+  Source gathered_source();
   // The gathered step's x, v and f copied from this rank (not rank 0) to rank 0's device.
   std::unique_ptr<HSGPU::GPU::PeerInputs> peer;
   class LammpsExchange *exchange;

@@ -123,11 +123,18 @@ bool FixHardSphere::share_inputs(long n, int nlocal, const double *x, const doub
    atoms' arrays hold the results), else 0 with nothing changed. */
 int FixHardSphere::step_gathered(Tally &mine, Tally &all)
 {
-  const int nlocal = atom->nlocal, np = comm->nprocs, me = comm->me;
-  // Per rank: its atoms, and whether its arrays hold what the last gathered step left there.
-  int head[2] = {nlocal, (resident_same && !sizes_vary) ? 1 : 0};
+  const int np = comm->nprocs, me = comm->me;
+  const bool whole = igroup == 0;
+  // Per rank: its atoms, and whether its arrays hold what the last gathered step left there
+  // (with another group never: its atoms are packed anew every step).
+  const bool unchanged = whole && resident_same && !sizes_vary;
   resident_same = false;
   if (!resident_usable()) return 0;
+  // The atoms this rank sends: LAMMPS's arrays with group all, else its group's atoms packed
+  // (gath.lidx: their indices here).
+  Source src = gathered_source();
+  const int nlocal = src.n;
+  int head[2] = {nlocal, unchanged ? 1 : 0};
   gath.head.resize(2 * (size_t) np);
   MPI_Allgather(head, 2, MPI_INT, gath.head.data(), 2, MPI_INT, world);
   count_collective(2.0 * sizeof(int) * (np - 1));
@@ -185,9 +192,7 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
     MPI_Type_size(type, &size);
     if (me == 0) moved += (double) size * per * (n - nlocal);
   };
-  double *x0 = nlocal ? atom->x[0] : nullptr, *v0 = nlocal ? atom->v[0] : nullptr;
-  double *f0 = nlocal ? atom->f[0] : nullptr;
-  double *w0 = (friction_on && nlocal) ? atom->omega[0] : nullptr;
+  double *x0 = src.x, *v0 = src.v, *f0 = src.f, *w0 = src.omega;
   // x, v and f straight into rank 0's device where every rank can reach it (one node, CUDA
   // IPC): each rank copies its own atoms there, all at once; else through rank 0's host.
   const bool shared = share_inputs(n, nlocal, x0, v0, f0);
@@ -199,11 +204,11 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
   if (friction_on) gather(w0, 3, MPI_DOUBLE, gath.omega.data());
   // The rest only where some rank's atoms moved in its arrays (the device keeps its copies).
   if (!same) {
-    gather(tlast, 1, MPI_DOUBLE, gath.tlast.data());
-    gather(atom->radius, 1, MPI_DOUBLE, gath.radius.data());
-    gather(atom->rmass, 1, MPI_DOUBLE, gath.rmass.data());
-    gather(atom->type, 1, MPI_INT, gath.type.data());
-    gather(atom->tag, 1, MPI_LMP_TAGINT, gath.id.data());
+    gather(src.tlast, 1, MPI_DOUBLE, gath.tlast.data());
+    gather(src.radius, 1, MPI_DOUBLE, gath.radius.data());
+    gather(src.rmass, 1, MPI_DOUBLE, gath.rmass.data());
+    gather(src.type, 1, MPI_INT, gath.type.data());
+    gather(src.id, 1, MPI_LMP_TAGINT, gath.id.data());
   }
   const double t_gather = MPI_Wtime() - t_start;
 
@@ -304,16 +309,22 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
                  gath.recv.data(), nrecv, MPI_DOUBLE, 0, world);
     if (me != 0) moved += sizeof(int) + (double) sizeof(double) * nrecv;
     const double dt = update->dt;
-    for (int i = 0; i < nlocal; ++i) tlast[i] = std::max(tlast[i] - dt, NEVER_COLLIDED);
+    // Into LAMMPS's arrays (the k-th atom sent is atom k, or gath.lidx[k] with a group).
+    double **x = atom->x, **v = atom->v;
+    auto local = [&](int k) { return whole ? k : gath.lidx[k]; };
+    for (int k = 0; k < nlocal; ++k) {
+      const int i = local(k);
+      tlast[i] = std::max(tlast[i] - dt, NEVER_COLLIDED);
+    }
     for (const double *in = gath.recv.data(); in < gath.recv.data() + nrecv; in += per) {
-      const int i = (int) in[0];
+      const int i = local((int) in[0]);
       for (int d = 0; d < 3; ++d) {
-        x0[3 * i + d] = in[1 + d];
-        v0[3 * i + d] = in[4 + d];
+        x[i][d] = in[1 + d];
+        v[i][d] = in[4 + d];
       }
       tlast[i] = in[7];
       if (friction_on)
-        for (int d = 0; d < 3; ++d) w0[3 * i + d] = in[8 + d];
+        for (int d = 0; d < 3; ++d) atom->omega[i][d] = in[8 + d];
     }
     report.t_resolve += MPI_Wtime() - t0;
     run_sum.t_gather += MPI_Wtime() - t0;
@@ -332,7 +343,70 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
   all.events = (long) r.events;
   all.capped = (int) r.capped;
   all.ke_lost = r.ke_lost;
-  resident_same = true;
+  resident_same = whole;
   vend2 = report.vend2;
   return 2;
+}
+
+/* What this rank sends to the gathered step: with group all LAMMPS's own arrays, else the
+   group's atoms packed into gath's arrays (grown only, after the device step has let go of
+   the old ones). */
+FixHardSphere::Source FixHardSphere::gathered_source()
+{
+  const int nlocal = atom->nlocal;
+  Source s;
+  if (igroup == 0) {
+    s.n = nlocal;
+    s.x = nlocal ? atom->x[0] : nullptr;
+    s.v = nlocal ? atom->v[0] : nullptr;
+    s.f = nlocal ? atom->f[0] : nullptr;
+    s.omega = (friction_on && nlocal) ? atom->omega[0] : nullptr;
+    s.tlast = tlast;
+    s.radius = atom->radius;
+    s.rmass = atom->rmass;
+    s.type = atom->type;
+    s.id = atom->tag;
+    return s;
+  }
+  const int *mask = atom->mask;
+  gath.lidx.clear();
+  for (int i = 0; i < nlocal; ++i)
+    if (mask[i] & groupbit) gath.lidx.push_back(i);
+  const int n = (int) gath.lidx.size();
+  if (n > gath.proom) {
+    if (resident) resident->forget_host_arrays();
+    if (peer) peer->forget_host_arrays();
+    gath.proom = n + n / 8 + 64;
+    for (std::vector<double> *w : {&gath.px, &gath.pv, &gath.pf, &gath.pomega})
+      w->resize(3 * (size_t) gath.proom);
+    for (std::vector<double> *w : {&gath.ptlast, &gath.pradius, &gath.prmass})
+      w->resize(gath.proom);
+    gath.ptype.resize(gath.proom);
+    gath.pid.resize(gath.proom);
+  }
+  for (int k = 0; k < n; ++k) {
+    const int i = gath.lidx[k];
+    for (int d = 0; d < 3; ++d) {
+      gath.px[3 * k + d] = atom->x[i][d];
+      gath.pv[3 * k + d] = atom->v[i][d];
+      gath.pf[3 * k + d] = atom->f[i][d];
+      if (friction_on) gath.pomega[3 * k + d] = atom->omega[i][d];
+    }
+    gath.ptlast[k] = tlast[i];
+    gath.pradius[k] = atom->radius[i];
+    gath.prmass[k] = atom->rmass[i];
+    gath.ptype[k] = atom->type[i];
+    gath.pid[k] = atom->tag[i];
+  }
+  s.n = n;
+  s.x = gath.px.data();
+  s.v = gath.pv.data();
+  s.f = gath.pf.data();
+  s.omega = friction_on ? gath.pomega.data() : nullptr;
+  s.tlast = gath.ptlast.data();
+  s.radius = gath.pradius.data();
+  s.rmass = gath.prmass.data();
+  s.type = gath.ptype.data();
+  s.id = gath.pid.data();
+  return s;
 }

@@ -1353,8 +1353,9 @@ void FixHardSphere::post_integrate()
   // The default event cap follows the atoms present (fix pour or fix deposit may have added
   // some since the run started, into a group that may have been empty then).
   if (maxevents_user <= 0) maxevents = 1000 + 100 * atom->natoms;
-  // A whole step on the device (one rank, group all) finds the budget's maxima there.
-  if (!(resident_usable() && igroup == 0)) step_budget();
+  // A whole step on the device (one rank with group all, or the gathered step) finds the
+  // budget's maxima there.
+  if (!(resident_usable() && (igroup == 0 || gather_step))) step_budget();
   Tally mine, all;
   vend2 = 0.0;
   const int on_device = step_resident(mine, all);

@@ -322,6 +322,40 @@ TEST(FixHardSphereMPI, HostResidentGatheredStepFollowsChangedArrays)
   MPI_Barrier(MPI_COMM_WORLD);
 }
 
+// The gathered step with a group other than all: each rank packs its group's atoms, the
+// results go back to them (80 of the 500 atoms held still outside the group).  Host reference
+// on 2 and 4 ranks against one rank in order serial, bit for bit.
+TEST(FixHardSphereMPI, HostResidentGatheredStepOfAGroup)
+{
+  if (HSGPU::GPU::device_count() > 0) GTEST_SKIP() << "a CUDA device is present";
+  int me = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  auto extra = [](const std::string &order) {
+    return std::vector<std::string>{
+        "group frozen id 421:500", "group mobile subtract all frozen",
+        "velocity frozen set 0 0 0", "fix fz frozen setforce 0 0 0", "unfix hs",
+        "fix hs mobile hardsphere restitution 0.95 restitution/pair 1 2 0.8 wall zlo 0.9 wall "
+        "zhi 1.0 tc 0.05 tc/slow no order " +
+            order};
+  };
+  setenv("HSGPU_RESIDENT_HOST", "1", 1);
+  const Snapshot world =
+      run_on(MPI_COMM_WORLD, "parallel", 300, false, false, extra("parallel gpu yes"));
+  unsetenv("HSGPU_RESIDENT_HOST");
+  if (me == 0) {
+    const Snapshot single = run_on(MPI_COMM_SELF, "serial", 300, false, false, extra("serial"));
+    EXPECT_EQ(max_abs_diff(world.x, single.x), 0.0);
+    EXPECT_EQ(max_abs_diff(world.v, single.v), 0.0);
+    EXPECT_EQ(world.f[1], single.f[1]) << "collisions in total";
+    EXPECT_GT(single.f[1], 3000.0);
+    EXPECT_GT(world.on_device, 250.0);
+    std::printf("[ MPI      ] gathered host reference step of a group: %.0f collisions, %.0f of "
+                "300 steps on the device\n",
+                single.f[1], world.on_device);
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+}
+
 // The same with the host's reference resident step in the device step's place (environment
 // HSGPU_RESIDENT_HOST, where no device is present): the fix's device step on one rank and its
 // gathered step on several (gather, run_atoms, results back, times of last collision shifted)
