@@ -697,48 +697,45 @@ void FixHardSphere::setup_backend()
   resident.reset();
   peer.reset();
   gather_step = false;
-  if (device >= 0) {
-    try {
+  // Tests (HSGPU_RESIDENT_HOST set): where gpu yes finds no device, the host's reference
+  // resident step takes the device step's place, so that the code around it runs.
+  const bool host_reference = device < 0 && gpu_requested && std::getenv("HSGPU_RESIDENT_HOST");
+  try {
+    if (device >= 0)
       backend = HSGPU::Collide::make_cuda_backend(device);
+    else
+      backend = HSGPU::Collide::make_cpu_backend();
+    if (device >= 0 || host_reference) {
       // One rank: whole steps on the device, in either order.  Several with gpu/gather yes:
       // rank 0's device runs each step over every rank's atoms of the group
       // (step_gathered()); with gpu/gather no each rank's host driver hands its device the
       // windows' groups.
       gather_step = comm->nprocs > 1 && gpu_gather;
       if (comm->nprocs == 1 || (gather_step && comm->me == 0)) {
-        resident = HSGPU::Collide::make_cuda_resident_step(device);
+        if (device >= 0)
+          resident = HSGPU::Collide::make_cuda_resident_step(device);
+        else
+          resident = HSGPU::Collide::make_host_resident_step();
         resident->set_serial(serial_order);
       }
-      // The other ranks copy their atoms to rank 0's device where they can (CUDA IPC; else,
-      // decided at the first step, through MPI).
+      // The other ranks copy their atoms to rank 0's device where they can (CUDA IPC on one
+      // node; else, decided at the first step, through MPI).
       gath.ipc = gather_step && !std::getenv("HSGPU_GATHER_MPI") && one_node();
-      if (gath.ipc && comm->me != 0) {
+      if (gath.ipc && comm->me != 0 && device >= 0) {
         try {
           peer.reset(new HSGPU::GPU::PeerInputs(device));
         } catch (std::exception &e) {
           gath.why = e.what();
         }
       }
-    } catch (std::exception &e) {
-      error->one(FLERR, "Fix hardsphere: cannot use CUDA device {}: {}", device, e.what());
     }
-  } else {
-    backend = HSGPU::Collide::make_cpu_backend();
-    // Tests (HSGPU_RESIDENT_HOST set): where gpu yes finds no device, the host's reference
-    // resident step takes the device step's place, so that the code around it runs.
-    if (gpu_requested && std::getenv("HSGPU_RESIDENT_HOST")) {
-      gather_step = comm->nprocs > 1 && gpu_gather;
-      gath.ipc = gather_step && !std::getenv("HSGPU_GATHER_MPI") && one_node();    // refused later
-      if (comm->nprocs == 1 || (gather_step && comm->me == 0)) {
-        resident = HSGPU::Collide::make_host_resident_step();
-        resident->set_serial(serial_order);
-      }
-      if (comm->me == 0)
-        utils::logmesg(lmp, "Fix hardsphere: HSGPU_RESIDENT_HOST: the host's reference resident "
-                            "step in the device step's place{}\n",
-                       gather_step ? ", each step's atoms gathered on rank 0" : "");
-    }
+  } catch (std::exception &e) {
+    error->one(FLERR, "Fix hardsphere: cannot use CUDA device {}: {}", device, e.what());
   }
+  if (host_reference && comm->me == 0)
+    utils::logmesg(lmp, "Fix hardsphere: HSGPU_RESIDENT_HOST: the host's reference resident "
+                        "step in the device step's place{}\n",
+                   gather_step ? ", each step's atoms gathered on rank 0" : "");
   backend_device = device;
   if (device >= 0 && comm->me == 0)
     utils::logmesg(lmp, "Fix hardsphere: CUDA collision backend, rank 0 on device {} ({}){}\n",

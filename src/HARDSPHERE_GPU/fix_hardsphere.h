@@ -227,14 +227,31 @@ class FixHardSphere : public Fix {
   bool gather_step = false;
   // Rank 0's copies of all atoms for that step, in rank order (grown, never shrunk: the device
   // step keeps them page-locked where they lie).
-  struct Gathered {
-    std::vector<int> head;             // per rank: atoms, and whether its arrays are unchanged
-    std::vector<int> count, displ;     // per rank: atoms and offset (rank 0)
-    std::vector<int> vcount, vdispl;   // the same times values per atom, for one transfer
-    std::vector<double> x, v, f, tlast, radius, rmass, omega;
+  // Some atoms' per-atom arrays (n atoms): LAMMPS's own, or copies for the gathered step.
+  struct Source {
+    int n = 0;
+    double *x = nullptr, *v = nullptr, *f = nullptr, *omega = nullptr, *tlast = nullptr;
+    double *radius = nullptr, *rmass = nullptr;
+    int *type = nullptr;
+    tagint *id = nullptr;
+  };
+  // Per-atom arrays of the gathered step, grown only.
+  struct AtomArrays {
+    std::vector<double> x, v, f, omega, tlast, radius, rmass;
     std::vector<int> type;
     std::vector<tagint> id;
-    long room = 0;    // atoms the arrays hold
+    long room = 0;    // atoms the arrays hold (or would, where not allocated)
+    /// Room for n atoms: the room grows (with an eighth to spare) and, where `allocate`, the
+    /// arrays with it (their owner has let go of the old ones where they were too short).
+    void grow(long n, bool allocate);
+    /// The first n atoms' arrays (omega only with `spin`).
+    Source view(int n, bool spin);
+  };
+  struct Gathered {
+    std::vector<int> head;             // per rank: atoms, and whether its arrays are unchanged
+    std::vector<int> displ;            // per rank: offset of its atoms
+    std::vector<int> vcount, vdispl;   // the same times values per atom, for one transfer
+    AtomArrays all;                    // every rank's atoms (allocated on rank 0)
     std::vector<HSGPU::Collide::ResidentResult> results;    // the atoms with events (rank 0)
     std::vector<double> rspin;                              // and their spins (rough spheres)
     std::vector<double> send, recv;                         // the results, by rank
@@ -244,19 +261,11 @@ class FixHardSphere : public Fix {
     double t_put = 0.0, t_wait = 0.0;    // this run: seconds copying them, and waiting for all
     // With a group other than all: this rank's group atoms (indices here) and their arrays.
     std::vector<int> lidx;
-    std::vector<double> px, pv, pf, pomega, ptlast, pradius, prmass;
-    std::vector<int> ptype;
-    std::vector<tagint> pid;
-    int proom = 0;
+    AtomArrays packed;
   } gath;
-  // What a rank sends to the gathered step (n atoms' arrays).
-  struct Source {
-    int n = 0;
-    double *x = nullptr, *v = nullptr, *f = nullptr, *omega = nullptr, *tlast = nullptr;
-    double *radius = nullptr, *rmass = nullptr;
-    int *type = nullptr;
-    tagint *id = nullptr;
-  };
+  /// LAMMPS's own arrays of this rank's atoms.
+  Source atom_source() const;
+  /// What this rank sends to the gathered step.
   Source gathered_source();
   // The gathered step's x, v and f copied from this rank (not rank 0) to rank 0's device.
   std::unique_ptr<HSGPU::GPU::PeerInputs> peer;
@@ -302,9 +311,7 @@ class FixHardSphere : public Fix {
   int step_gathered(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   bool share_inputs(long n, int nlocal, const double *x, const double *v, const double *f);
   HSGPU::Collide::ResidentBox resident_box() const;
-  HSGPU::Collide::ResidentAtoms resident_atoms(int n, double *x, double *v, double *f, double *tl,
-                                               double *radius, double *mass, int *type,
-                                               tagint *id, double *omega, bool same) const;
+  HSGPU::Collide::ResidentAtoms resident_atoms(const Source &s, bool same) const;
   void count_resident(const HSGPU::Collide::ResidentReport &report);
   void report_overlap(int npush, int left);
   void prepare(double drift_dt);

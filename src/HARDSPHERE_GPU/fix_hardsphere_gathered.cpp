@@ -1,17 +1,19 @@
 /* ----------------------------------------------------------------------------------
    HARDSPHERE_GPU: fix hardsphere, the device step of several ranks (see fix_hardsphere.h).
 
-   With `gpu yes` on several MPI ranks, group all and `gpu/gather yes` (the default), each step
-   every rank sends its atoms' arrays to rank 0 (MPI_Gatherv straight from LAMMPS's arrays:
-   positions, velocities, forces; times of last collision, radii, masses, types and IDs only
-   where some rank's atoms moved in its arrays since the last such step; angular velocities of
-   rough spheres), rank 0's device runs the whole step over all atoms as on one rank
-   (ResidentStep::run_atoms), and the atoms that had events go back to their ranks (position,
-   velocity, time of last collision, spin: MPI_Scatterv); every rank shifts its other atoms'
-   times of last collision to the step end itself.  Event times depend only on the two atoms'
-   states, so the result is one rank's bit for bit, whatever order the atoms arrive in.  Where
-   the device hands the step back, every rank resolves it the host way from the same start
-   (its arrays are untouched until the results come).
+   With `gpu yes` on several MPI ranks and `gpu/gather yes` (the default), each step every rank
+   sends its atoms of the group (LAMMPS's arrays with group all, else its group's atoms packed)
+   to rank 0: positions, velocities and forces straight into rank 0's device where all ranks
+   share one node (CUDA IPC, share_inputs()), else by MPI_Gatherv to rank 0's host; times of
+   last collision, radii, masses, types and IDs only where some rank's atoms moved in its
+   arrays since the last such step; angular velocities of rough spheres.  Rank 0's device runs
+   the whole step over all of them as on one rank (ResidentStep::run_atoms), and the atoms that
+   had events go back to their ranks (position, velocity, time of last collision, spin:
+   MPI_Scatterv); every rank shifts its other atoms' times of last collision to the step end
+   itself.  Event times depend only on the two atoms' states, so the result is one rank's bit
+   for bit, whatever order the atoms arrive in.  Where the device hands the step back, every
+   rank resolves it the host way from the same start (its arrays are untouched until the
+   results come).
 ------------------------------------------------------------------------------------- */
 
 #include "fix_hardsphere.h"
@@ -78,8 +80,7 @@ bool FixHardSphere::share_inputs(long n, int nlocal, const double *x, const doub
   count_collective(sizeof(int) + hbytes);
   ok = hbytes > 0;
   // Each rank's own atoms, at its offset (the ranks' atoms in rank order).
-  long first = 0;
-  for (int p = 0; p < me; ++p) first += gath.head[2 * p];
+  const long first = gath.displ[me];
   const double t0 = MPI_Wtime();
   if (ok) {
     try {
@@ -150,37 +151,26 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
                "(at most {}); use gpu/gather no",
                n, INT_MAX / 3 - 1);
   const double t_start = MPI_Wtime();
-  if (n > gath.room) {
-    // Rank 0's arrays grow (every rank keeps the size, so all send everything this step); the
-    // device step lets go of the old arrays before they move.
-    gath.room = n + n / 8 + 64;
+  // Rank 0's arrays grow (every rank keeps their size, so all send everything that step); the
+  // device step lets go of the old arrays before they move.
+  if (n > gath.all.room) {
     same = false;
-    if (me == 0) {
-      resident->forget_host_arrays();
-      for (std::vector<double> *w : {&gath.x, &gath.v, &gath.f, &gath.omega})
-        w->resize(3 * (size_t) gath.room);
-      for (std::vector<double> *w : {&gath.tlast, &gath.radius, &gath.rmass}) w->resize(gath.room);
-      gath.type.resize(gath.room);
-      gath.id.resize(gath.room);
-    }
+    if (me == 0) resident->forget_host_arrays();
+    gath.all.grow(n, me == 0);
   }
-  if (me == 0) {
-    gath.count.resize(np);
-    gath.displ.resize(np);
-    gath.vcount.resize(np);
-    gath.vdispl.resize(np);
-    for (int p = 0, off = 0; p < np; ++p) {
-      gath.count[p] = gath.head[2 * p];
-      gath.displ[p] = off;
-      off += gath.count[p];
-    }
+  gath.displ.resize(np);
+  gath.vcount.resize(np);
+  gath.vdispl.resize(np);
+  for (int p = 0, off = 0; p < np; ++p) {
+    gath.displ[p] = off;
+    off += gath.head[2 * p];
   }
   // One array of `per` values per atom, from every rank to rank 0 or back.
   double moved = 0.0;    // bytes this rank received
   auto counts = [&](int per) {
     if (me != 0) return;
     for (int p = 0; p < np; ++p) {
-      gath.vcount[p] = per * gath.count[p];
+      gath.vcount[p] = per * gath.head[2 * p];
       gath.vdispl[p] = per * gath.displ[p];
     }
   };
@@ -197,18 +187,18 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
   // IPC): each rank copies its own atoms there, all at once; else through rank 0's host.
   const bool shared = share_inputs(n, nlocal, x0, v0, f0);
   if (!shared) {
-    gather(x0, 3, MPI_DOUBLE, gath.x.data());
-    gather(v0, 3, MPI_DOUBLE, gath.v.data());
-    gather(f0, 3, MPI_DOUBLE, gath.f.data());
+    gather(x0, 3, MPI_DOUBLE, gath.all.x.data());
+    gather(v0, 3, MPI_DOUBLE, gath.all.v.data());
+    gather(f0, 3, MPI_DOUBLE, gath.all.f.data());
   }
-  if (friction_on) gather(w0, 3, MPI_DOUBLE, gath.omega.data());
+  if (friction_on) gather(w0, 3, MPI_DOUBLE, gath.all.omega.data());
   // The rest only where some rank's atoms moved in its arrays (the device keeps its copies).
   if (!same) {
-    gather(src.tlast, 1, MPI_DOUBLE, gath.tlast.data());
-    gather(src.radius, 1, MPI_DOUBLE, gath.radius.data());
-    gather(src.rmass, 1, MPI_DOUBLE, gath.rmass.data());
-    gather(src.type, 1, MPI_INT, gath.type.data());
-    gather(src.id, 1, MPI_LMP_TAGINT, gath.id.data());
+    gather(src.tlast, 1, MPI_DOUBLE, gath.all.tlast.data());
+    gather(src.radius, 1, MPI_DOUBLE, gath.all.radius.data());
+    gather(src.rmass, 1, MPI_DOUBLE, gath.all.rmass.data());
+    gather(src.type, 1, MPI_INT, gath.all.type.data());
+    gather(src.id, 1, MPI_LMP_TAGINT, gath.all.id.data());
   }
   const double t_gather = MPI_Wtime() - t_start;
 
@@ -216,10 +206,7 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
   GatheredResult r = {};
   if (me == 0) {
     HSGPU::Collide::ResidentReport report;
-    HSGPU::Collide::ResidentAtoms a =
-        resident_atoms((int) n, gath.x.data(), gath.v.data(), gath.f.data(), gath.tlast.data(),
-                       gath.radius.data(), gath.rmass.data(), gath.type.data(), gath.id.data(),
-                       friction_on ? gath.omega.data() : nullptr, same);
+    HSGPU::Collide::ResidentAtoms a = resident_atoms(gath.all.view((int) n, friction_on), same);
     a.inputs_shared = shared;
     a.results = &gath.results;    // the atoms with events listed, to go back to their ranks
     a.result_spin = &gath.rspin;
@@ -293,7 +280,7 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
           out[1 + d] = res.x[d];
           out[4 + d] = res.v[d];
         }
-        out[7] = gath.tlast[res.index];
+        out[7] = gath.all.tlast[res.index];
         if (friction_on)
           for (int d = 0; d < 3; ++d) out[8 + d] = gath.rspin[3 * k + d];
       }
@@ -348,65 +335,62 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
   return 2;
 }
 
+void FixHardSphere::AtomArrays::grow(long n, bool allocate)
+{
+  if (n <= room) return;
+  room = n + n / 8 + 64;
+  if (!allocate) return;
+  for (std::vector<double> *w : {&x, &v, &f, &omega}) w->resize(3 * (size_t) room);
+  for (std::vector<double> *w : {&tlast, &radius, &rmass}) w->resize(room);
+  type.resize(room);
+  id.resize(room);
+}
+
+FixHardSphere::Source FixHardSphere::AtomArrays::view(int n, bool spin)
+{
+  Source s;
+  s.n = n;
+  s.x = x.data();
+  s.v = v.data();
+  s.f = f.data();
+  s.omega = spin ? omega.data() : nullptr;
+  s.tlast = tlast.data();
+  s.radius = radius.data();
+  s.rmass = rmass.data();
+  s.type = type.data();
+  s.id = id.data();
+  return s;
+}
+
 /* What this rank sends to the gathered step: with group all LAMMPS's own arrays, else the
-   group's atoms packed into gath's arrays (grown only, after the device step has let go of
-   the old ones). */
+   group's atoms packed (the device steps let go of the old arrays before they grow). */
 FixHardSphere::Source FixHardSphere::gathered_source()
 {
-  const int nlocal = atom->nlocal;
-  Source s;
-  if (igroup == 0) {
-    s.n = nlocal;
-    s.x = nlocal ? atom->x[0] : nullptr;
-    s.v = nlocal ? atom->v[0] : nullptr;
-    s.f = nlocal ? atom->f[0] : nullptr;
-    s.omega = (friction_on && nlocal) ? atom->omega[0] : nullptr;
-    s.tlast = tlast;
-    s.radius = atom->radius;
-    s.rmass = atom->rmass;
-    s.type = atom->type;
-    s.id = atom->tag;
-    return s;
-  }
-  const int *mask = atom->mask;
+  if (igroup == 0) return atom_source();
+  const int nlocal = atom->nlocal, *mask = atom->mask;
   gath.lidx.clear();
   for (int i = 0; i < nlocal; ++i)
     if (mask[i] & groupbit) gath.lidx.push_back(i);
   const int n = (int) gath.lidx.size();
-  if (n > gath.proom) {
+  AtomArrays &p = gath.packed;
+  if (n > p.room) {
     if (resident) resident->forget_host_arrays();
     if (peer) peer->forget_host_arrays();
-    gath.proom = n + n / 8 + 64;
-    for (std::vector<double> *w : {&gath.px, &gath.pv, &gath.pf, &gath.pomega})
-      w->resize(3 * (size_t) gath.proom);
-    for (std::vector<double> *w : {&gath.ptlast, &gath.pradius, &gath.prmass})
-      w->resize(gath.proom);
-    gath.ptype.resize(gath.proom);
-    gath.pid.resize(gath.proom);
+    p.grow(n, true);
   }
   for (int k = 0; k < n; ++k) {
     const int i = gath.lidx[k];
     for (int d = 0; d < 3; ++d) {
-      gath.px[3 * k + d] = atom->x[i][d];
-      gath.pv[3 * k + d] = atom->v[i][d];
-      gath.pf[3 * k + d] = atom->f[i][d];
-      if (friction_on) gath.pomega[3 * k + d] = atom->omega[i][d];
+      p.x[3 * k + d] = atom->x[i][d];
+      p.v[3 * k + d] = atom->v[i][d];
+      p.f[3 * k + d] = atom->f[i][d];
+      if (friction_on) p.omega[3 * k + d] = atom->omega[i][d];
     }
-    gath.ptlast[k] = tlast[i];
-    gath.pradius[k] = atom->radius[i];
-    gath.prmass[k] = atom->rmass[i];
-    gath.ptype[k] = atom->type[i];
-    gath.pid[k] = atom->tag[i];
+    p.tlast[k] = tlast[i];
+    p.radius[k] = atom->radius[i];
+    p.rmass[k] = atom->rmass[i];
+    p.type[k] = atom->type[i];
+    p.id[k] = atom->tag[i];
   }
-  s.n = n;
-  s.x = gath.px.data();
-  s.v = gath.pv.data();
-  s.f = gath.pf.data();
-  s.omega = friction_on ? gath.pomega.data() : nullptr;
-  s.tlast = gath.ptlast.data();
-  s.radius = gath.pradius.data();
-  s.rmass = gath.prmass.data();
-  s.type = gath.ptype.data();
-  s.id = gath.pid.data();
-  return s;
+  return p.view(n, friction_on);
 }

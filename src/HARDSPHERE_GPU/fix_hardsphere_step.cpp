@@ -1231,32 +1231,47 @@ HSGPU::Collide::ResidentBox FixHardSphere::resident_box() const
   return box;
 }
 
-/* A resident step's view of n atoms' arrays (x, v, f: 3 per atom; omega: rough spheres only,
-   else null), the step budget left to the device; same: the arrays other than x, v, f and
-   omega hold what the last step done there left in them (ResidentAtoms::same_atoms). */
-HSGPU::Collide::ResidentAtoms FixHardSphere::resident_atoms(int n, double *x, double *v,
-                                                            double *f, double *tl, double *radius,
-                                                            double *mass, int *type, tagint *id,
-                                                            double *omega, bool same) const
+/* A resident step's view of some atoms' arrays (omega: rough spheres only, else null), the
+   step budget left to the device; same: the arrays other than x, v, f and omega hold what the
+   last step done there left in them (ResidentAtoms::same_atoms). */
+HSGPU::Collide::ResidentAtoms FixHardSphere::resident_atoms(const Source &s, bool same) const
 {
   HSGPU::Collide::ResidentAtoms a;
-  a.n = n;
-  a.x = x;
-  a.v = v;
-  a.f = f;
-  a.tlast = tl;
-  a.radius = radius;
-  a.rmass = mass;
-  a.type = type;
-  a.id = id;
+  a.n = s.n;
+  a.x = s.x;
+  a.v = s.v;
+  a.f = s.f;
+  a.tlast = s.tlast;
+  a.radius = s.radius;
+  a.rmass = s.rmass;
+  a.type = s.type;
+  a.id = s.id;
   a.id_bytes = (int) sizeof(tagint);
   a.ftm2v = force->ftm2v;
   a.bound_floor = -1.0;    // the device works out the step budget
   a.reach = reach;
   a.never = NEVER_COLLIDED;
   a.same_atoms = same;
-  a.omega = omega;
+  a.omega = s.omega;
   return a;
+}
+
+/* LAMMPS's own arrays of this rank's atoms (omega only for rough spheres). */
+FixHardSphere::Source FixHardSphere::atom_source() const
+{
+  const int n = atom->nlocal;
+  Source s;
+  s.n = n;
+  s.x = n ? atom->x[0] : nullptr;
+  s.v = n ? atom->v[0] : nullptr;
+  s.f = n ? atom->f[0] : nullptr;
+  s.omega = (friction_on && n) ? atom->omega[0] : nullptr;
+  s.tlast = tlast;
+  s.radius = atom->radius;
+  s.rmass = atom->rmass;
+  s.type = atom->type;
+  s.id = atom->tag;
+  return s;
 }
 
 /* The timers and counters of a resident step (one rank, or rank 0's gathered step as every
@@ -1311,11 +1326,7 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
   double t_gather = 0.0;
   try {
     if (whole) {
-      const int n = atom->nlocal;
-      const HSGPU::Collide::ResidentAtoms a =
-          resident_atoms(n, n ? atom->x[0] : nullptr, n ? atom->v[0] : nullptr,
-                         n ? atom->f[0] : nullptr, tlast, atom->radius, atom->rmass, atom->type,
-                         atom->tag, (friction_on && n) ? atom->omega[0] : nullptr, same);
+      const HSGPU::Collide::ResidentAtoms a = resident_atoms(atom_source(), same);
       resident->run_atoms(a, box, step_params(), wsettings, mine, report);
       // The budget's checks, and bound_floor for the host should the device decline.
       check_budget(report.vmax2, report.amax, report.rmax);

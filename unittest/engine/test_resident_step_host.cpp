@@ -31,7 +31,7 @@ struct Atoms {
   std::vector<double> x, v, f, tlast, radius, rmass;
   std::vector<int> type;
   std::vector<long long> id;
-  ResidentAtoms view(double dt)
+  ResidentAtoms view()
   {
     ResidentAtoms a{};
     a.n = (int) radius.size();
@@ -48,7 +48,6 @@ struct Atoms {
     a.bound_floor = -1.0;
     a.reach = 1e300;
     a.never = -1e30;
-    (void) dt;
     return a;
   }
 };
@@ -106,7 +105,7 @@ TEST(ResidentStepHost, RunAtomsListsWhatItWouldWrite)
     // A step in which an atom moved further than its bound is declined, as given, and done
     // again with larger bounds (as its callers do).
     for (double floor : {-1.0, 0.3, 1.0}) {
-      ResidentAtoms va = a.view(dt), vb = b.view(dt);
+      ResidentAtoms va = a.view(), vb = b.view();
       va.bound_floor = vb.bound_floor = floor;
       vb.results = &res;
       wr->run_atoms(va, resident_box(w), p, s, ta, ra);
@@ -169,7 +168,7 @@ TEST(ResidentStepHost, DeclinesWhatItCannotFinish)
   auto outcome = [&](World world, long maxevents) {
     p.maxevents = maxevents;
     Atoms a = atoms_of(world, dt), b = a;
-    ResidentAtoms v = a.view(dt);
+    ResidentAtoms v = a.view();
     Tally t;
     ResidentReport r;
     rs->run_atoms(v, resident_box(world), p, s, t, r);

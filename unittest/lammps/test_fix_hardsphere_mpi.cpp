@@ -22,6 +22,10 @@ using ::testing::HasSubstr;
 
 namespace {
 
+// Rough spheres: friction between the types and on the floor and roof (fix arguments).
+const std::string ROUGH = " friction 0.5 0.3 friction/pair 1 2 0.3 0.0 wall/friction zlo 0.6 0.2 "
+                          "wall/friction zhi 0.2 -0.5";
+
 struct Snapshot {
   std::vector<double> x, v, w;
   double f[6];
@@ -240,11 +244,8 @@ TEST(FixHardSphereMPI, CudaBackendOnAllRanksAgreesWithSingleRankSerial)
 double check_device_steps(double least)
 {
   double bytes = 0.0;
-  const std::string rough =
-      " friction 0.5 0.3 friction/pair 1 2 0.3 0.0 wall/friction zlo 0.6 0.2 wall/friction zhi "
-      "0.2 -0.5";
   const std::vector<std::string> cases = {"parallel gpu yes|serial", "serial gpu yes|parallel",
-                                          "parallel gpu yes" + rough + "|parallel" + rough,
+                                          "parallel gpu yes" + ROUGH + "|parallel" + ROUGH,
                                           "parallel gpu yes tc 0.05 tc/slow no|serial tc 0.05 "
                                           "tc/slow no"};
   int me = 0, np = 1;
@@ -372,11 +373,8 @@ TEST(FixHardSphereMPI, HostResidentStepAgreesWithSingleRank)
 // the groups gathered across ranks, and every rank count and order gives one rank's bits.
 TEST(FixHardSphereMPI, FrictionAgreesWithSingleRankInBothOrders)
 {
-  const std::string rough =
-      " friction 0.5 0.3 friction/pair 1 2 0.3 0.0 wall/friction zlo 0.6 0.2 wall/friction zhi "
-      "0.2 -0.5";
-  compare("parallel" + rough, "parallel" + rough);
-  compare("serial" + rough, "parallel windows 3" + rough);
+  compare("parallel" + ROUGH, "parallel" + ROUGH);
+  compare("serial" + ROUGH, "parallel windows 3" + ROUGH);
 }
 
 TEST(FixHardSphereMPI, SerialOrderOnAllRanksAgreesWithParallelOnOne)

@@ -61,7 +61,7 @@ namespace Collide {
         }
         report.t_search = seconds_since(t0);
         Tally t;
-        if (!step(atoms.data(), n, box, p, s, t, report)) return;
+        if (!step(atoms, box, p, s, t, report)) return;
         tally.add(t);
         // The results where the caller wants them (the CUDA step's order: increasing index).
         const auto t1 = std::chrono::steady_clock::now();
@@ -104,7 +104,7 @@ namespace Collide {
         atoms.assign(bodies, bodies + n);
         bound.assign(bnd, bnd + n);
         Tally t;
-        if (!step(atoms.data(), n, box, p, s, t, report)) return;
+        if (!step(atoms, box, p, s, t, report)) return;
         tally.add(t);
         for (int i = 0; i < n; ++i)
           if (atoms[i].nevents > 0) {
@@ -114,19 +114,20 @@ namespace Collide {
       }
 
      private:
-      std::vector<Body> atoms, work;
+      std::vector<Body> atoms;    // the step's bodies, resolved in place
       std::vector<double> bound;
       std::vector<Edge> edges;
       WindowDriver driver;
       Resolver resolver;
       std::unique_ptr<CollisionBackend> cpu = make_cpu_backend();
 
-      /* The step of b[0 .. n) with the step bounds in `bound`; false (report.outcome says why,
-         b as given) where it declines. */
-      bool step(Body *b, int n, const ResidentBox &box, const Params &p, const WindowSettings &s,
-                Tally &t, ResidentReport &report)
+      /* The step of the bodies b (a scratch copy, resolved in place) with the step bounds in
+         `bound`; false where it declines (report.outcome says why). */
+      bool step(std::vector<Body> &b, const ResidentBox &box, const Params &p,
+                const WindowSettings &s, Tally &t, ResidentReport &report)
       {
         const auto t0 = std::chrono::steady_clock::now();
+        const int n = (int) b.size();
         // Candidates: start points within their radii and bounds (nearest image), the lower ID
         // first with its separation; overlaps decline.
         edges.clear();
@@ -171,16 +172,15 @@ namespace Collide {
         report.candidates = (long) edges.size();
         report.t_search += seconds_since(t0);
         const auto t1 = std::chrono::steady_clock::now();
-        work.assign(b, b + n);
         if (serial) {
-          resolver.resolve_serial(work, edges, p, t);
+          resolver.resolve_serial(b, edges, p, t);
           report.stats = WindowStats();
           report.stats.windows = 1;
           report.stats.groups = 1;
           report.stats.largest_group = n;
         } else {
           SingleRank single;
-          driver.run(work, edges, {}, {}, p, s, *cpu, single, t, report.stats);
+          driver.run(b, edges, {}, {}, p, s, *cpu, single, t, report.stats);
         }
         report.t_resolve += seconds_since(t1);
         if (t.capped) {
@@ -191,14 +191,13 @@ namespace Collide {
         // its bound or the reach.
         for (int i = 0; i < n; ++i) {
           double xe[3], ve[3];
-          end_of_step(work[i], p.dt, xe, ve);
-          const double exc = std::sqrt(work[i].exc2);
+          end_of_step(b[i], p.dt, xe, ve);
+          const double exc = std::sqrt(b[i].exc2);
           if (exc > bound[i] || exc > box.reach) {
             report.outcome = ResidentOutcome::excursion;
             return false;
           }
         }
-        std::copy(work.begin(), work.end(), b);
         report.outcome = ResidentOutcome::done;
         return true;
       }

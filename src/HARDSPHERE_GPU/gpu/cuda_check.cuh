@@ -92,6 +92,56 @@ namespace GPU {
     template <class T> T *as() const { return static_cast<T *>(ptr); }
   };
 
+  /// A caller's host range page-locked in place (cudaHostRegister), so that copies from it
+  /// move at the pinned rate.  keep() holds [q, q + n): a range that moved or changed length is
+  /// released and the new one locked.  Where the driver refuses (memory limits, an overlap with
+  /// another locked range) `locking` turns false and the copies stay pageable: slower, the same
+  /// bytes.  Released by its owner.
+  struct HostRangeLock {
+    void *p = nullptr;
+    size_t bytes = 0;
+
+    void keep(const void *q, size_t n, bool &locking)
+    {
+      if (p == q && bytes == n) return;
+      release();
+      if (!locking || !q || n == 0) return;
+      if (cudaHostRegister(const_cast<void *>(q), n, cudaHostRegisterDefault) != cudaSuccess) {
+        (void) cudaGetLastError();
+        locking = false;
+        return;
+      }
+      p = const_cast<void *>(q);
+      bytes = n;
+    }
+
+    void release()
+    {
+      if (p) cudaHostUnregister(p);
+      (void) cudaGetLastError();
+      p = nullptr;
+      bytes = 0;
+    }
+  };
+
+  /// Copies count atoms' x, v and f (3 doubles each) from the host into atoms [first, first +
+  /// count) of the device arrays dst[0 .. 2] (this process's, or another's opened by CUDA IPC)
+  /// on `stream`, each source range page-locked in place by locks[0 .. 2], and waits.
+  inline void copy_xvf_to_device(double *const dst[3], long first, long count, const double *x,
+                                 const double *v, const double *f, HostRangeLock locks[3],
+                                 bool &locking, cudaStream_t stream, const char *what)
+  {
+    if (count <= 0) return;
+    const double *src[3] = {x, v, f};
+    const size_t bytes = (size_t) 3 * count * sizeof(double);
+    for (int k = 0; k < 3; ++k) {
+      locks[k].keep(src[k], bytes, locking);
+      cuda_check(cudaMemcpyAsync(dst[k] + 3 * first, src[k], bytes, cudaMemcpyDefault, stream),
+                 what);
+    }
+    cuda_check(cudaStreamSynchronize(stream), what);
+  }
+
 }    // namespace GPU
 }    // namespace HSGPU
 

@@ -13,9 +13,8 @@ namespace GPU {
     cudaStream_t stream = nullptr;
     std::vector<char> handles;    // of the buffers open now
     double *buf[3] = {nullptr, nullptr, nullptr};
-    const void *locked[3] = {nullptr, nullptr, nullptr};
-    size_t locked_bytes[3] = {0, 0, 0};
-    bool locking = true;    // false once the driver refused: pageable copies from then on
+    HostRangeLock locked[3];    // the host arrays of put()
+    bool locking = true;        // false once the driver refused: pageable copies from then on
 
     void close()
     {
@@ -25,28 +24,6 @@ namespace GPU {
       }
       (void) cudaGetLastError();
       handles.clear();
-    }
-
-    void unlock(int k)
-    {
-      if (locked[k]) cudaHostUnregister(const_cast<void *>(locked[k]));
-      (void) cudaGetLastError();
-      locked[k] = nullptr;
-      locked_bytes[k] = 0;
-    }
-
-    void lock(int k, const void *p, size_t bytes)
-    {
-      if (locked[k] == p && locked_bytes[k] == bytes) return;
-      unlock(k);
-      if (!locking || !p || bytes == 0) return;
-      if (cudaHostRegister(const_cast<void *>(p), bytes, cudaHostRegisterDefault) != cudaSuccess) {
-        (void) cudaGetLastError();
-        locking = false;
-        return;
-      }
-      locked[k] = p;
-      locked_bytes[k] = bytes;
     }
   };
 
@@ -67,7 +44,7 @@ namespace GPU {
   {
     cudaSetDevice(impl->device);
     impl->close();
-    for (int k = 0; k < 3; ++k) impl->unlock(k);
+    for (HostRangeLock &l : impl->locked) l.release();
     if (impl->stream) cudaStreamDestroy(impl->stream);
     (void) cudaGetLastError();
     delete impl;
@@ -96,21 +73,14 @@ namespace GPU {
     if (count <= 0) return;
     if (!impl->buf[0]) throw Error("PeerInputs: no buffers open");
     cuda_check(cudaSetDevice(impl->device), "cudaSetDevice");
-    const double *src[3] = {x, v, f};
-    const size_t bytes = (size_t) 3 * count * sizeof(double);
-    for (int k = 0; k < 3; ++k) {
-      impl->lock(k, src[k], bytes);
-      cuda_check(
-          cudaMemcpyAsync(impl->buf[k] + 3 * first, src[k], bytes, cudaMemcpyDefault, impl->stream),
-          "cudaMemcpy(atoms to the gathering device)");
-    }
-    cuda_check(cudaStreamSynchronize(impl->stream), "cudaMemcpy(atoms to the gathering device)");
+    copy_xvf_to_device(impl->buf, first, count, x, v, f, impl->locked, impl->locking, impl->stream,
+                       "cudaMemcpy(atoms to the gathering device)");
   }
 
   void PeerInputs::forget_host_arrays()
   {
     cudaSetDevice(impl->device);
-    for (int k = 0; k < 3; ++k) impl->unlock(k);
+    for (HostRangeLock &l : impl->locked) l.release();
   }
 
 }    // namespace GPU

@@ -94,6 +94,8 @@ namespace Collide {
     using GPU::cuda_check;
     using GPU::DeviceBuffer;
     using GPU::PinnedBuffer;
+    using GPU::copy_xvf_to_device;
+    using GPU::HostRangeLock;
 
     constexpr int BLOCK = 256;
     constexpr int GROUP_BLOCK = 128;
@@ -1025,7 +1027,7 @@ namespace Collide {
         for (DeviceBuffer *b :
              {&d_ax, &d_av, &d_af, &d_arad, &d_amass, &d_atlast, &d_atype, &d_aid, &d_aomega})
           b->release();
-        for (Locked &l : locked) unlock(l);
+        for (HostRangeLock &l : locked) l.release();
         if (ev_up0) cudaEventDestroy(ev_up0);
         if (ev_up1) cudaEventDestroy(ev_up1);
         if (stream) cudaStreamDestroy(stream);
@@ -1057,13 +1059,8 @@ namespace Collide {
       std::vector<char> serial_key;             // arguments they were captured with
       DeviceBuffer d_ax, d_av, d_af, d_arad, d_amass, d_atlast, d_atype, d_aid;
       DeviceBuffer d_aomega;    // run_atoms(): the angular velocities (rough spheres only)
-      /// A caller's array page-locked in place (cudaHostRegister).
-      struct Locked {
-        void *p = nullptr;
-        size_t bytes = 0;
-      };
       static constexpr int NLOCKED = 8;
-      Locked locked[NLOCKED];    // run_atoms()'s arrays
+      HostRangeLock locked[NLOCKED];    // run_atoms()'s arrays, page-locked where they lie
       bool locking = true;       // false once the driver refused: pageable copies from then on
       // run_atoms()'s arrays from FIRST_KEPT on (tlast, radius, rmass, type, id) as the last
       // step that was done left them on the device, and where they lie on the host: the next
@@ -1072,32 +1069,6 @@ namespace Collide {
       bool kept = false;
       const void *kept_host[NLOCKED] = {};
       size_t kept_bytes[NLOCKED] = {};
-
-      /* Keeps [p, p + bytes) page-locked: a range that moved or changed length is released and
-         the new one locked.  Where the driver refuses (memory limits, an overlap with another
-         locked range), the copies stay pageable: slower, the same bytes. */
-      void lock(Locked &l, const void *p, size_t bytes)
-      {
-        if (l.p == p && l.bytes == bytes) return;
-        unlock(l);
-        if (!locking || !p || bytes == 0) return;
-        const cudaError_t e =
-            cudaHostRegister(const_cast<void *>(p), bytes, cudaHostRegisterDefault);
-        if (e != cudaSuccess) {
-          (void) cudaGetLastError();
-          locking = false;
-          return;
-        }
-        l.p = const_cast<void *>(p);
-        l.bytes = bytes;
-      }
-
-      void unlock(Locked &l)
-      {
-        if (l.p) cudaHostUnregister(l.p);
-        (void) cudaGetLastError();
-        l = Locked();
-      }
 
      public:
       bool share_inputs(long count, std::vector<char> &handles) override
@@ -1122,22 +1093,15 @@ namespace Collide {
       {
         if (count <= 0) return;
         cuda_check(cudaSetDevice(device), "cudaSetDevice");
-        DeviceBuffer *b[3] = {&d_ax, &d_av, &d_af};
-        const double *src[3] = {x, v, f};
-        const size_t bytes = (size_t) 3 * count * sizeof(double);
-        for (int k = 0; k < 3; ++k) {
-          lock(locked[k], src[k], bytes);    // this rank's own arrays, page-locked in place
-          cuda_check(cudaMemcpyAsync(b[k]->as<double>() + 3 * first, src[k], bytes,
-                                     cudaMemcpyHostToDevice, stream),
-                     "cudaMemcpy(atoms)");
-        }
-        cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(atoms)");
+        double *const dst[3] = {d_ax.as<double>(), d_av.as<double>(), d_af.as<double>()};
+        // This rank's own arrays, page-locked in place in run_atoms()'s x, v, f slots.
+        copy_xvf_to_device(dst, first, count, x, v, f, locked, locking, stream, "cudaMemcpy(atoms)");
       }
 
       void forget_host_arrays() override
       {
         cudaSetDevice(device);
-        for (Locked &l : locked) unlock(l);
+        for (HostRangeLock &l : locked) l.release();
         kept = false;
       }
 
@@ -1976,7 +1940,7 @@ namespace Collide {
       cuda_check(cudaEventRecord(ev_up0, stream), "cudaEventRecord");
       for (int k = 0; k < NLOCKED; ++k) {
         if (a.inputs_shared && k < FIRST_KEPT) continue;    // x, v, f: in place already
-        lock(locked[k], arrays[k].h, arrays[k].bytes);
+        locked[k].keep(arrays[k].h, arrays[k].bytes, locking);
         if (locked[k].p) ++prof.locked;
         if (keep && k >= FIRST_KEPT) continue;
         up(arrays[k].d, arrays[k].h, arrays[k].bytes);
