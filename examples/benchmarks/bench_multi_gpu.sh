@@ -23,6 +23,8 @@
 #   "65536 262144 1048576";  per  atoms per GPU for table 2, default 262144;  reps  repetitions
 #   of each run, default 1 (the median is printed).  HSGPU_MGPU_TABLES="1 2 3" picks tables.
 #
+# Each timed run follows a warm-up run of HSGPU_MGPU_WARM steps (default 3) in the same
+# process; the tables give the second run.
 # Columns of tables 1 and 2 come from LAMMPS's timer breakdown on rank 0, per step: Loop (the
 # whole step), Pair (the gravity: with several ranks each GPU sums over all atoms for its own),
 # Modify (fix hardsphere, fix nve/sphere and fix gravity), Comm and Neigh; "fix step" is the
@@ -40,6 +42,7 @@ read -r -a sizes <<< "${4:-65536 262144 1048576}"
 per=${5:-262144}
 reps=${6:-1}
 tables=${HSGPU_MGPU_TABLES:-1 2 3 4}
+warm=${HSGPU_MGPU_WARM:-3}    # steps of the warm-up run before each timed run (tables 1, 2, 4)
 mpirun=${MPIRUN:-mpirun}    # may carry options, e.g. "mpirun --bind-to none"
 export OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 work=$(mktemp -d)
@@ -67,6 +70,11 @@ for f in "$work"/in.dilute "$work"/in.lattice2d "$work"/in.lattice3d "$work"/in.
     printf '%s\n' 'write_dump all custom ${dump} id x y z vx vy vz modify sort id format float %.17g' \
       >> "$f.$v.read"
   done
+  # The timed variants run `warm` steps first: a run's first step allocates the device
+  # buffers, page-locks the atom arrays and opens the other ranks' buffers (about 0.1 s on
+  # four GPUs at N = 1048576), which a 10-step run would spread over its steps.  The tables
+  # give the second run.
+  sed -i "s/^run \(.*\)$/run $warm\nrun \1/" "$f.col" "$f.grav" "$f.nogather"
 done
 
 median() { sort -g | awk '{v[NR] = $1} END {print (NR % 2) ? v[(NR + 1) / 2] : 0.5 * (v[NR / 2] + v[NR / 2 + 1])}'; }
@@ -78,7 +86,7 @@ one() {
   (cd "$work" && $mpirun -np "$r" "$lmp" -in "$input" -var plugin "$plugin" "$@" -log "$log" \
     -echo none -screen none > "$log.out" 2>&1) ||
     { echo "run failed: $r ranks, $input $*" >&2; tail -n 8 "$work/$log" "$work/$log.out" >&2; exit 1; }
-  awk -v st="$(sed -n 's/^Loop time of [0-9.e+-]* on [0-9]* procs for \([0-9]*\) steps.*/\1/p' "$work/$log")" '
+  awk -v st="$(sed -n 's/^Loop time of [0-9.e+-]* on [0-9]* procs for \([0-9]*\) steps.*/\1/p' "$work/$log" | tail -n 1)" '
     /^Loop time of/ {loop = $4}
     /^Pair  *\|/ {split($0, c, "|"); pair = c[3]}
     /^Modify  *\|/ {split($0, c, "|"); modify = c[3]}
@@ -210,8 +218,8 @@ if [[ " $tables " == *" 4 "* ]]; then
     yes=$6
     set -- $(one "$r" in.lattice3d.nogather log.gn -var N "$n" -var steps 10)
     no=$6
-    mv=$(sed -n 's/.* and \([0-9.e+-]*\) s gathering the atoms.*/\1/p' "$work/log.gy")
-    kb=$(sed -n 's/.*, \([0-9.e+-]*\) kB received by all.*/\1/p' "$work/log.gy")
+    mv=$(sed -n 's/.* and \([0-9.e+-]*\) s gathering the atoms.*/\1/p' "$work/log.gy" | tail -n 1)
+    kb=$(sed -n 's/.*, \([0-9.e+-]*\) kB received by all.*/\1/p' "$work/log.gy" | tail -n 1)
     awk -v r="$r" -v n="$n" -v y="$yes" -v o="$no" -v mv="$mv" -v kb="$kb" \
       'BEGIN {printf "| %d | %d | %.2f | %.1f | %.1f | %.1f |\n", r, n, y, o, 1e3 * mv / 50, kb / 1e3}'
   done

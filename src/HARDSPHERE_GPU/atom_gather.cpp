@@ -26,6 +26,12 @@ AtomGather::AtomGather(LAMMPS *lmp, const char *style_name) :
 
 void AtomGather::gather()
 {
+  prepare();
+  exchange();
+}
+
+void AtomGather::prepare()
+{
   const int nlocal = atom->nlocal;
   double **xx = atom->x;
   const tagint *tag = atom->tag;
@@ -48,12 +54,12 @@ void AtomGather::gather()
     const double mi = rmass ? rmass[i] : pmass[type[i]];
     local_changed = (tag[i] != last_tag[i] || mi != last_mass[i]) ? 1 : 0;
   }
-  int any_changed = 0;
+  any_changed = 0;
   MPI_Allreduce(&local_changed, &any_changed, 1, MPI_INT, MPI_MAX, world);
   if (ntotal == 0) any_changed = 1;
   // Unchanged: the same atoms in the same places on every rank, so the receive layout and
   // the atom-ID order of the last full gather still hold and positions travel alone.
-  const int npack = any_changed ? NPACK : 3;
+  npack = any_changed ? NPACK : 3;
   const int off = any_changed ? 1 : 0;
   if (local_changed) {
     last_tag.resize(nlocal);
@@ -76,13 +82,40 @@ void AtomGather::gather()
     if (any_changed) b[4] = rmass ? rmass[i] : pmass[type[i]];
   }
 
+  const long total = HSGPU::allgather_layout(world, npack * nlocal, counts, displs);
+  if (total < 0) error->all(FLERR, "Pair style {}: too many atoms for the all-pairs gather", style);
+  ntotal = total / npack;
+  own_start = displs[comm->me] / npack;
+  if (!any_changed) {
+    own_xp = sendbuf.data();
+    own_mp = (mass.size() == (size_t) ntotal) ? mass.data() + own_start : nullptr;
+  } else {
+    own_xbuf.resize(3 * (size_t) nlocal);
+    own_mbuf.resize(nlocal);
+    for (int i = 0; i < nlocal; ++i) {
+      for (int d = 0; d < 3; ++d) own_xbuf[3 * i + d] = sendbuf[(size_t) npack * i + 1 + d];
+      own_mbuf[i] = sendbuf[(size_t) npack * i + 4];
+    }
+    own_xp = own_xbuf.data();
+    own_mp = own_mbuf.data();
+  }
+  if (!id_order) {
+    index.resize(nlocal);
+    for (int i = 0; i < nlocal; ++i) index[i] = own_start + i;
+  }
+}
+
+void AtomGather::exchange()
+{
+  const int nlocal = atom->nlocal;
+  const tagint *tag = atom->tag;
   // Rank order, positions only: receive straight into x.
   std::vector<double> &recv = (!id_order && !any_changed) ? x : recvbuf;
-  if (!HSGPU::allgather_doubles(world, sendbuf, recv, counts, displs))
-    error->all(FLERR, "Pair style {}: too many atoms for the all-pairs gather", style);
+  recv.resize((size_t) npack * ntotal);
+  MPI_Allgatherv(sendbuf.data(), npack * nlocal, MPI_DOUBLE, recv.data(), counts.data(),
+                 displs.data(), MPI_DOUBLE, world);
 
-  const long n = (long) recv.size() / npack;
-  ntotal = n;
+  const long n = ntotal;
   if (!any_changed) {
     changed_masses = false;
     if (!id_order) return;    // x is filled; index[] is unchanged
@@ -111,7 +144,7 @@ void AtomGather::gather()
     } else {
       for (long k = 0; k < n; ++k) order[k] = k;
       std::sort(order.begin(), order.end(),
-                [this, npack](long a, long b) { return recvbuf[npack * a] < recvbuf[npack * b]; });
+                [this](long a, long b) { return recvbuf[npack * a] < recvbuf[npack * b]; });
       tags_sorted.resize(n);
       for (long s = 0; s < n; ++s) tags_sorted[s] = recvbuf[npack * order[s]];
     }
@@ -129,11 +162,10 @@ void AtomGather::gather()
     mass[s] = b[4];
   }
 
+  if (!id_order) return;    // index[] was set by prepare()
   index.resize(nlocal);
   for (int i = 0; i < nlocal; ++i) {
-    if (!id_order) {
-      index[i] = displs[comm->me] / npack + i;
-    } else if (direct) {
+    if (direct) {
       index[i] = (long) tag[i] - 1;
     } else {
       auto it = std::lower_bound(tags_sorted.begin(), tags_sorted.end(), (double) tag[i]);

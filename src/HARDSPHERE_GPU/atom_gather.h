@@ -25,8 +25,17 @@ class AtomGather : protected Pointers {
   AtomGather(class LAMMPS *, const char *style);
 
   // Collective: gather owned atoms of all ranks.  Stops with an error naming the atom if
-  // a mass is not positive.  Ranks may differ in id_order.
+  // a mass is not positive.  Ranks may differ in id_order.  gather() is prepare() then
+  // exchange(): in rank order (id_order false on every rank) the rank's own atoms are known
+  // between the two (own_first(), own_x(), own_mass(), ntotal, index), so that work on them
+  // can start before the exchange, which moves most of the bytes.
   void gather();
+  void prepare();
+  void exchange();
+  long own_first() const { return own_start; }
+  const double *own_x() const { return own_xp; }       // 3 per owned atom, wrapped
+  const double *own_mass() const { return own_mp; }    // 1 per owned atom
+  bool masses_travel() const { return any_changed != 0; }    // this gather changes masses
 
   bool id_order = true;    // order x and mass by atom ID (else by rank, as received)
 
@@ -43,6 +52,10 @@ class AtomGather : protected Pointers {
  private:
   const char *style;
   std::vector<double> sendbuf, recvbuf;
+  std::vector<double> own_xbuf, own_mbuf;    // the own atoms where sendbuf also holds IDs
+  long own_start = 0;
+  const double *own_xp = nullptr, *own_mp = nullptr;
+  int any_changed = 1, npack = 0;            // from prepare() for exchange()
   std::vector<int> counts, displs;
   std::vector<long> order;
   bool direct = false;          // atom IDs are exactly 1..ntotal

@@ -162,6 +162,7 @@ class FixHardSphere : public Fix {
     double t_transfer = 0.0;    // seconds copying bodies to the device and back
     double bytes_up = 0.0;      // bytes of atom arrays copied to the device (whole steps)
     double t_gather = 0.0;      // gpu/gather: seconds moving the atoms to rank 0 and back
+    double t_back = 0.0;        // gpu/gather: of those, sending the results back
     double collectives = 0.0, halos = 0.0, bytes = 0.0;    // communication (this rank's)
     double messages = 0.0;
     bigint declined[5] = {0, 0, 0, 0, 0};                  // steps handed back, by ResidentOutcome
@@ -230,6 +231,7 @@ class FixHardSphere : public Fix {
   // Some atoms' per-atom arrays (n atoms): LAMMPS's own, or copies for the gathered step.
   struct Source {
     int n = 0;
+    long room = 0;    // atoms x, v and f hold (LAMMPS's nmax, or the packed arrays' room)
     double *x = nullptr, *v = nullptr, *f = nullptr, *omega = nullptr, *tlast = nullptr;
     double *radius = nullptr, *rmass = nullptr;
     int *type = nullptr;
@@ -255,6 +257,11 @@ class FixHardSphere : public Fix {
     std::vector<HSGPU::Collide::ResidentResult> results;    // the atoms with events (rank 0)
     std::vector<double> rspin;                              // and their spins (rough spheres)
     std::vector<double> send, recv;                         // the results, by rank
+    bool ipc_results = true;      // each rank reads its results from rank 0's device
+    std::vector<char> rhandles;   // rank 0's device copies of the results
+    std::vector<int> span;        // per rank: its first result and how many (rank 0)
+    std::vector<HSGPU::Collide::ResidentResult> rres;    // this rank's results, read there
+    std::vector<double> rtlast;                          // and its atoms' tlast
     bool ipc = true;              // x, v, f straight to rank 0's device (share_inputs())
     std::vector<char> handles;    // rank 0's device buffers for them
     std::string why;              // why a rank could not
@@ -309,7 +316,9 @@ class FixHardSphere : public Fix {
   int build(double drift_dt, bool collect_pushes);
   int step_resident(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   int step_gathered(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
-  bool share_inputs(long n, int nlocal, const double *x, const double *v, const double *f);
+  bool share_inputs(long n, int nlocal, const Source &src, bool statics);
+  void results_mpi(int nlocal, bool whole, double &moved);
+  bool results_shared(int nlocal, bool whole, double &moved);
   HSGPU::Collide::ResidentBox resident_box() const;
   HSGPU::Collide::ResidentAtoms resident_atoms(const Source &s, bool same) const;
   void count_resident(const HSGPU::Collide::ResidentReport &report);

@@ -50,13 +50,13 @@ constexpr int NRESULT = (int) (sizeof(GatheredResult) / sizeof(double));
 
 }    // namespace
 
-/* Each rank's x, v and f (nlocal atoms) into rank 0's device buffers for the step of all n
-   atoms, where every rank can open them (ResidentStep::share_inputs(), GPU::PeerInputs: CUDA
-   IPC, ranks of one node).  Returns whether they are there; false on every rank where any rank
-   could not (the atoms then go through MPI, and so for the rest of the run, with a note in
-   the log).  HSGPU_GATHER_MPI in the environment: never tried. */
-bool FixHardSphere::share_inputs(long n, int nlocal, const double *x, const double *v,
-                                 const double *f)
+/* Each rank's x, v and f (nlocal atoms of src) into rank 0's device buffers for the step of
+   all n atoms, and with `statics` their tlast, radius, rmass, type and id too, where every
+   rank can open them (ResidentStep::share_inputs(), GPU::PeerInputs: CUDA IPC, ranks of one
+   node).  Returns whether they are there; false on every rank where any rank could not (the
+   atoms then go through MPI, and so for the rest of the run, with a note in the log).
+   HSGPU_GATHER_MPI in the environment: never tried. */
+bool FixHardSphere::share_inputs(long n, int nlocal, const Source &src, bool statics)
 {
   if (!gath.ipc) return false;
   const int me = comm->me;
@@ -66,7 +66,7 @@ bool FixHardSphere::share_inputs(long n, int nlocal, const double *x, const doub
   int hbytes = 0;
   if (me == 0) {
     try {
-      ok = resident->share_inputs(n, h) ? 1 : 0;
+      ok = resident->share_inputs(n, (int) sizeof(tagint), h) ? 1 : 0;
     } catch (std::exception &) {
       ok = 0;
     }
@@ -84,12 +84,19 @@ bool FixHardSphere::share_inputs(long n, int nlocal, const double *x, const doub
   const double t0 = MPI_Wtime();
   if (ok) {
     try {
+      const int idb = (int) sizeof(tagint);
       if (me == 0) {
-        resident->put_inputs(first, nlocal, x, v, f);
+        resident->put_inputs(first, nlocal, src.x, src.v, src.f, src.room);
+        if (statics)
+          resident->put_statics(first, nlocal, src.tlast, src.radius, src.rmass, src.type, src.id,
+                                idb);
       } else {
         if (!peer) throw std::runtime_error("no device for the gathered step's inputs");
         peer->open(h);
-        peer->put(first, nlocal, x, v, f);
+        peer->put(first, nlocal, src.x, src.v, src.f, src.room);
+        if (statics)
+          peer->put_statics(first, nlocal, src.tlast, src.radius, src.rmass, src.type, src.id,
+                            idb);
       }
     } catch (std::exception &e) {
       ok = 0;
@@ -185,15 +192,16 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
   double *x0 = src.x, *v0 = src.v, *f0 = src.f, *w0 = src.omega;
   // x, v and f straight into rank 0's device where every rank can reach it (one node, CUDA
   // IPC): each rank copies its own atoms there, all at once; else through rank 0's host.
-  const bool shared = share_inputs(n, nlocal, x0, v0, f0);
+  const bool shared = share_inputs(n, nlocal, src, !same);
   if (!shared) {
     gather(x0, 3, MPI_DOUBLE, gath.all.x.data());
     gather(v0, 3, MPI_DOUBLE, gath.all.v.data());
     gather(f0, 3, MPI_DOUBLE, gath.all.f.data());
   }
   if (friction_on) gather(w0, 3, MPI_DOUBLE, gath.all.omega.data());
-  // The rest only where some rank's atoms moved in its arrays (the device keeps its copies).
-  if (!same) {
+  // The rest only where some rank's atoms moved in its arrays (the device keeps its copies),
+  // and with the copies above already in place.
+  if (!same && !shared) {
     gather(src.tlast, 1, MPI_DOUBLE, gath.all.tlast.data());
     gather(src.radius, 1, MPI_DOUBLE, gath.all.radius.data());
     gather(src.rmass, 1, MPI_DOUBLE, gath.all.rmass.data());
@@ -208,6 +216,7 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
     HSGPU::Collide::ResidentReport report;
     HSGPU::Collide::ResidentAtoms a = resident_atoms(gath.all.view((int) n, friction_on), same);
     a.inputs_shared = shared;
+    a.statics_shared = shared && !same;
     a.results = &gath.results;    // the atoms with events listed, to go back to their ranks
     a.result_spin = &gath.rspin;
     try {
@@ -265,56 +274,11 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
     // velocity, time of last collision (and spin); every other atom's time of last collision
     // is shifted to the step end here, as the device did (max(t - dt, never)).
     const double t0 = MPI_Wtime();
-    const int per = friction_on ? 11 : 8;
-    if (me == 0) {
-      std::fill(gath.vcount.begin(), gath.vcount.end(), 0);
-      gath.send.resize((size_t) per * gath.results.size());
-      double *out = gath.send.data();
-      int p = 0;
-      for (size_t k = 0; k < gath.results.size(); ++k, out += per) {
-        const HSGPU::Collide::ResidentResult &res = gath.results[k];
-        while (p + 1 < np && res.index >= gath.displ[p + 1]) ++p;    // increasing indices
-        gath.vcount[p] += per;
-        out[0] = (double) (res.index - gath.displ[p]);
-        for (int d = 0; d < 3; ++d) {
-          out[1 + d] = res.x[d];
-          out[4 + d] = res.v[d];
-        }
-        out[7] = gath.all.tlast[res.index];
-        if (friction_on)
-          for (int d = 0; d < 3; ++d) out[8 + d] = gath.rspin[3 * k + d];
-      }
-      for (int q = 0, off = 0; q < np; ++q) {
-        gath.vdispl[q] = off;
-        off += gath.vcount[q];
-      }
-    }
-    int nrecv = 0;
-    MPI_Scatter(gath.vcount.data(), 1, MPI_INT, &nrecv, 1, MPI_INT, 0, world);
-    gath.recv.resize(nrecv);
-    MPI_Scatterv(gath.send.data(), gath.vcount.data(), gath.vdispl.data(), MPI_DOUBLE,
-                 gath.recv.data(), nrecv, MPI_DOUBLE, 0, world);
-    if (me != 0) moved += sizeof(int) + (double) sizeof(double) * nrecv;
-    const double dt = update->dt;
-    // Into LAMMPS's arrays (the k-th atom sent is atom k, or gath.lidx[k] with a group).
-    double **x = atom->x, **v = atom->v;
-    auto local = [&](int k) { return whole ? k : gath.lidx[k]; };
-    for (int k = 0; k < nlocal; ++k) {
-      const int i = local(k);
-      tlast[i] = std::max(tlast[i] - dt, NEVER_COLLIDED);
-    }
-    for (const double *in = gath.recv.data(); in < gath.recv.data() + nrecv; in += per) {
-      const int i = local((int) in[0]);
-      for (int d = 0; d < 3; ++d) {
-        x[i][d] = in[1 + d];
-        v[i][d] = in[4 + d];
-      }
-      tlast[i] = in[7];
-      if (friction_on)
-        for (int d = 0; d < 3; ++d) atom->omega[i][d] = in[8 + d];
-    }
+    if (!(shared && gath.ipc_results && !friction_on && results_shared(nlocal, whole, moved)))
+      results_mpi(nlocal, whole, moved);
     report.t_resolve += MPI_Wtime() - t0;
     run_sum.t_gather += MPI_Wtime() - t0;
+    run_sum.t_back += MPI_Wtime() - t0;
   }
   run_sum.t_gather += t_gather;
   // The gathers and scatters as one collective, with the bytes this rank received.
@@ -350,6 +314,7 @@ FixHardSphere::Source FixHardSphere::AtomArrays::view(int n, bool spin)
 {
   Source s;
   s.n = n;
+  s.room = (long) x.size() / 3;
   s.x = x.data();
   s.v = v.data();
   s.f = f.data();
@@ -360,6 +325,151 @@ FixHardSphere::Source FixHardSphere::AtomArrays::view(int n, bool spin)
   s.type = type.data();
   s.id = id.data();
   return s;
+}
+
+/* The results of rank 0's step back to their ranks through MPI: per atom with events its index
+   there, position, velocity, time of last collision (and spin); every other atom's time of
+   last collision is shifted to the step end here, as the device did (max(t - dt, never)). */
+void FixHardSphere::results_mpi(int nlocal, bool whole, double &moved)
+{
+  const int np = comm->nprocs, me = comm->me;
+  const int per = friction_on ? 11 : 8;
+  if (me == 0) {
+    std::fill(gath.vcount.begin(), gath.vcount.end(), 0);
+    gath.send.resize((size_t) per * gath.results.size());
+    double *out = gath.send.data();
+    int p = 0;
+    for (size_t k = 0; k < gath.results.size(); ++k, out += per) {
+      const HSGPU::Collide::ResidentResult &res = gath.results[k];
+      while (p + 1 < np && res.index >= gath.displ[p + 1]) ++p;    // increasing indices
+      gath.vcount[p] += per;
+      out[0] = (double) (res.index - gath.displ[p]);
+      for (int d = 0; d < 3; ++d) {
+        out[1 + d] = res.x[d];
+        out[4 + d] = res.v[d];
+      }
+      out[7] = gath.all.tlast[res.index];
+      if (friction_on)
+        for (int d = 0; d < 3; ++d) out[8 + d] = gath.rspin[3 * k + d];
+    }
+    for (int q = 0, off = 0; q < np; ++q) {
+      gath.vdispl[q] = off;
+      off += gath.vcount[q];
+    }
+  }
+  int nrecv = 0;
+  MPI_Scatter(gath.vcount.data(), 1, MPI_INT, &nrecv, 1, MPI_INT, 0, world);
+  gath.recv.resize(nrecv);
+  MPI_Scatterv(gath.send.data(), gath.vcount.data(), gath.vdispl.data(), MPI_DOUBLE,
+               gath.recv.data(), nrecv, MPI_DOUBLE, 0, world);
+  if (me != 0) moved += sizeof(int) + (double) sizeof(double) * nrecv;
+  const double dt = update->dt;
+  // Into LAMMPS's arrays (the k-th atom sent is atom k, or gath.lidx[k] with a group).
+  double **x = atom->x, **v = atom->v;
+  auto local = [&](int k) { return whole ? k : gath.lidx[k]; };
+  for (int k = 0; k < nlocal; ++k) {
+    const int i = local(k);
+    tlast[i] = std::max(tlast[i] - dt, NEVER_COLLIDED);
+  }
+  for (const double *in = gath.recv.data(); in < gath.recv.data() + nrecv; in += per) {
+    const int i = local((int) in[0]);
+    for (int d = 0; d < 3; ++d) {
+      x[i][d] = in[1 + d];
+      v[i][d] = in[4 + d];
+    }
+    tlast[i] = in[7];
+    if (friction_on)
+      for (int d = 0; d < 3; ++d) atom->omega[i][d] = in[8 + d];
+  }
+}
+
+/* The same, each rank reading its atoms' results and times of last collision straight from
+   rank 0's device (CUDA IPC, where share_inputs() copied the atoms there this step): rank 0
+   sends each rank where its results start and how many there are.  Returns false on every
+   rank, with nothing changed, where some rank could not; the results then go through MPI
+   (results_mpi()), and so for the rest of the run. */
+bool FixHardSphere::results_shared(int nlocal, bool whole, double &moved)
+{
+  using HSGPU::Collide::ResidentResult;
+  const int np = comm->nprocs, me = comm->me;
+  std::vector<char> &h = gath.rhandles;
+  int hbytes = 0;
+  if (me == 0) {
+    // Rank p's results: those with indices in [displ[p], displ[p + 1]) (increasing indices).
+    gath.span.assign(2 * np, 0);
+    const std::vector<ResidentResult> &res = gath.results;
+    auto start = [&](int p) {
+      if (p >= np) return (int) res.size();
+      return (int) (std::lower_bound(res.begin(), res.end(), gath.displ[p],
+                                     [](const ResidentResult &r, int i) { return r.index < i; }) -
+                    res.begin());
+    };
+    for (int p = 0; p < np; ++p) {
+      gath.span[2 * p] = start(p);
+      gath.span[2 * p + 1] = start(p + 1) - gath.span[2 * p];
+    }
+    bool ok = false;
+    try {
+      ok = resident->share_results(h);
+    } catch (std::exception &) {
+      ok = false;
+    }
+    hbytes = ok ? (int) h.size() : 0;
+  }
+  MPI_Bcast(&hbytes, 1, MPI_INT, 0, world);
+  if (hbytes == 0) {
+    gath.ipc_results = false;
+    return false;
+  }
+  h.resize(hbytes);
+  MPI_Bcast(h.data(), hbytes, MPI_CHAR, 0, world);
+  int mine[2] = {0, 0};
+  MPI_Scatter(gath.span.data(), 2, MPI_INT, mine, 2, MPI_INT, 0, world);
+  moved += sizeof(int) + hbytes + sizeof(mine);
+  int ok = 1;
+  if (me != 0) {
+    try {
+      if (!peer) throw std::runtime_error("no device to read the results with");
+      peer->open_results(h);
+      gath.rres.resize(mine[1]);
+      peer->get_result(0, sizeof(ResidentResult) * (size_t) mine[0],
+                       sizeof(ResidentResult) * (size_t) mine[1], gath.rres.data());
+      gath.rtlast.resize(nlocal);
+      peer->get_result(1, sizeof(double) * (size_t) gath.displ[me], sizeof(double) * nlocal,
+                       gath.rtlast.data());
+    } catch (std::exception &e) {
+      ok = 0;
+      gath.why = e.what();
+    }
+  }
+  // Also: every rank has read before rank 0's device moves on.
+  int all = 0;
+  MPI_Allreduce(&ok, &all, 1, MPI_INT, MPI_MIN, world);
+  count_collective(sizeof(int));
+  if (!all) {
+    gath.ipc_results = false;
+    int who = ok ? np : me, first_bad = 0;
+    MPI_Allreduce(&who, &first_bad, 1, MPI_INT, MPI_MIN, world);
+    if (first_bad == me)
+      utils::logmesg(lmp,
+                     "Fix hardsphere: rank {} cannot read its results from rank 0's device ({}); "
+                     "they come through MPI for the rest of the run\n",
+                     me, gath.why);
+    return false;
+  }
+  const ResidentResult *res = (me == 0) ? gath.results.data() + mine[0] : gath.rres.data();
+  const double *tl = (me == 0) ? gath.all.tlast.data() + gath.displ[0] : gath.rtlast.data();
+  double **x = atom->x, **v = atom->v;
+  auto local = [&](int k) { return whole ? k : gath.lidx[k]; };
+  for (int k = 0; k < nlocal; ++k) tlast[local(k)] = tl[k];
+  for (int k = 0; k < mine[1]; ++k) {
+    const int i = local(res[k].index - gath.displ[me]);
+    for (int d = 0; d < 3; ++d) {
+      x[i][d] = res[k].x[d];
+      v[i][d] = res[k].v[d];
+    }
+  }
+  return true;
 }
 
 /* What this rank sends to the gathered step: with group all LAMMPS's own arrays, else the

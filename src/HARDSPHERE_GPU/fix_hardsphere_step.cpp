@@ -1262,6 +1262,7 @@ FixHardSphere::Source FixHardSphere::atom_source() const
   const int n = atom->nlocal;
   Source s;
   s.n = n;
+  s.room = atom->nmax;
   s.x = n ? atom->x[0] : nullptr;
   s.v = n ? atom->v[0] : nullptr;
   s.f = n ? atom->f[0] : nullptr;
@@ -1495,8 +1496,9 @@ void FixHardSphere::post_run()
                    r.resident, r.steps, gather_step ? " of rank 0" : "", r.t_transfer,
                    1e-6 * r.bytes_up / n,
                    gather_step ? fmt::format(", and {:.4g} s gathering the atoms of all ranks on "
-                                             "rank 0 and sending the results back",
-                                             r.t_gather)
+                                             "rank 0 and sending the results back, {:.4g} s of "
+                                             "them the results",
+                                             r.t_gather, r.t_back)
                                : std::string(),
                    back(ResidentOutcome::overlap), back(ResidentOutcome::excursion),
                    back(ResidentOutcome::capped), back(ResidentOutcome::small_box));

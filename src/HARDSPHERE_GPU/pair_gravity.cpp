@@ -36,6 +36,7 @@ PairGravity::PairGravity(LAMMPS *lmp) :
     Pair(lmp), gravity_g(0.0), softening_eps(0.0), cutoff(0.0), gather(nullptr), gpu_requested(0),
     precision((int) HSGPU::GPU::Precision::Mixed), device_request(-1), engine(nullptr),
     t_gather(0.0), t_upload(0.0), t_kernel(0.0), t_total(0.0), ncalls(0), ncalls_once(0),
+    ncalls_overlap(0),
     timing(false), timing_all(false)
 {
   single_enable = 0;
@@ -54,16 +55,17 @@ PairGravity::~PairGravity()
 {
   if (timing && timing_all && ncalls > 0)
     printf("Pair gravity timing on rank %d over %ld calls (s/call): total %.4g, gather %.4g, "
-           "device transfers+launch %.4g, kernels %.4g; pairs once in %ld calls\n",
+           "device transfers+launch %.4g, kernels %.4g; pairs once in %ld calls; gather "
+           "overlapped with the kernels in %ld calls\n",
            comm->me, ncalls, t_total / ncalls, t_gather / ncalls, t_upload / ncalls,
-           t_kernel / ncalls, ncalls_once);
+           t_kernel / ncalls, ncalls_once, ncalls_overlap);
   else if (timing && comm->me == 0 && ncalls > 0)
     utils::logmesg(lmp,
                    "Pair gravity timing on rank 0 over {} calls (s/call): total {:.4g}, gather "
                    "{:.4g}, device transfers+launch {:.4g}, kernels {:.4g}; pairs once in {} "
-                   "calls\n",
+                   "calls; gather overlapped with the kernels in {} calls\n",
                    ncalls, t_total / ncalls, t_gather / ncalls, t_upload / ncalls,
-                   t_kernel / ncalls, ncalls_once);
+                   t_kernel / ncalls, ncalls_once, ncalls_overlap);
   delete gather;
   delete engine;
   if (allocated) {
@@ -293,19 +295,23 @@ void PairGravity::compute(int eflag, int vflag)
   // The CPU path sums in atom-ID order (results independent of the decomposition); the GPU
   // path takes the atoms in the order they arrive.
   gather->id_order = (engine == nullptr);
-  gather->gather();
-  const double t1 = timing ? MPI_Wtime() : 0.0;
   const int nlocal = atom->nlocal;
-  if (engine)
-    compute_gpu(nlocal);
-  else
-    compute_cpu(nlocal);
+  double t_gathered = 0.0;
+  if (engine && comm->nprocs > 1) {
+    compute_gpu_overlapped(nlocal, t_gathered);
+  } else {
+    gather->gather();
+    t_gathered = timing ? MPI_Wtime() - t0 : 0.0;
+    if (engine)
+      compute_gpu(nlocal);
+    else
+      compute_cpu(nlocal);
+  }
   check_forces(nlocal);
   tally(nlocal);
   if (timing) {
-    const double t2 = MPI_Wtime();
-    t_gather += t1 - t0;
-    t_total += t2 - t0;
+    t_gather += t_gathered;
+    t_total += MPI_Wtime() - t0;
     ++ncalls;
   }
 }
@@ -339,9 +345,9 @@ void PairGravity::compute_cpu(int nlocal)
   }
 }
 
-void PairGravity::compute_gpu(int nlocal)
+// The engine's arguments for this step (the box of the last gather) and room for its results.
+void PairGravity::gpu_args(int nlocal, HSGPU::GPU::GravityArgs &a)
 {
-  HSGPU::GPU::GravityArgs a;
   a.G = gravity_g;
   a.eps2 = softening_eps * softening_eps;
   a.cutsq = cutoff * cutoff;
@@ -358,6 +364,27 @@ void PairGravity::compute_gpu(int nlocal)
   gpu_f.resize(3 * (size_t) nlocal);
   gpu_e.resize(a.energy_virial ? nlocal : 0);
   gpu_v.resize(a.energy_virial ? 6 * (size_t) nlocal : 0);
+}
+
+void PairGravity::add_gpu_results(int nlocal, bool energy_virial)
+{
+  double **f = atom->f;
+  sums.resize(nlocal);
+  for (int i = 0; i < nlocal; ++i) {
+    f[i][0] += gpu_f[3 * i];
+    f[i][1] += gpu_f[3 * i + 1];
+    f[i][2] += gpu_f[3 * i + 2];
+    if (energy_virial) {
+      sums[i].e = gpu_e[i];
+      for (int k = 0; k < 6; ++k) sums[i].v[k] = gpu_v[6 * i + k];
+    }
+  }
+}
+
+void PairGravity::compute_gpu(int nlocal)
+{
+  HSGPU::GPU::GravityArgs a;
+  gpu_args(nlocal, a);
   try {
     const double t0 = timing ? MPI_Wtime() : 0.0;
     engine->set_sources(gather->ntotal, gather->x.data(), gather->mass.data(),
@@ -373,17 +400,46 @@ void PairGravity::compute_gpu(int nlocal)
   } catch (std::exception &e) {
     error->one(FLERR, "Pair gravity on CUDA device {}: {}", engine->device(), e.what());
   }
-  double **f = atom->f;
-  sums.resize(nlocal);
-  for (int i = 0; i < nlocal; ++i) {
-    f[i][0] += gpu_f[3 * i];
-    f[i][1] += gpu_f[3 * i + 1];
-    f[i][2] += gpu_f[3 * i + 2];
-    if (a.energy_virial) {
-      sums[i].e = gpu_e[i];
-      for (int k = 0; k < 6; ++k) sums[i].v[k] = gpu_v[6 * i + k];
-    }
+  add_gpu_results(nlocal, a.energy_virial);
+}
+
+/* Several ranks: the device starts on the sums over the rank's own atoms (known before the
+   gather) and the gather of the other ranks' positions, most of the bytes, runs meanwhile;
+   then the sums over the other atoms.  Collective, as gather() is. */
+void PairGravity::compute_gpu_overlapped(int nlocal, double &t_gathered)
+{
+  const double t0 = MPI_Wtime();
+  gather->prepare();
+  const double t1 = MPI_Wtime();
+  HSGPU::GPU::GravityArgs a;
+  gpu_args(nlocal, a);
+  a.pairs_once = 0;    // not every atom is a target here
+  const auto prec = (HSGPU::GPU::Precision) precision;
+  try {
+    engine->set_targets(nlocal, gather->index.data());
+    engine->begin_own(prec, a, gather->ntotal, gather->own_first(), nlocal, gather->own_x(),
+                      gather->own_mass(), gather->masses_travel());
+  } catch (std::exception &e) {
+    error->one(FLERR, "Pair gravity on CUDA device {}: {}", engine->device(), e.what());
   }
+  const double t2 = MPI_Wtime();
+  gather->exchange();
+  const double t3 = MPI_Wtime();
+  try {
+    engine->finish_rest(gather->x.data(), gather->mass.data(), gpu_f.data(), gpu_e.data(),
+                        gpu_v.data());
+  } catch (std::exception &e) {
+    error->one(FLERR, "Pair gravity on CUDA device {}: {}", engine->device(), e.what());
+  }
+  const double t4 = MPI_Wtime();
+  t_gathered = (t1 - t0) + (t3 - t2);
+  if (timing) {
+    ++ncalls_overlap;
+    const double k = 1e-3 * engine->last_kernel_ms();
+    t_kernel += k;
+    t_upload += std::max(0.0, t4 - t1 - k);
+  }
+  add_gpu_results(nlocal, a.energy_virial);
 }
 
 /* Collective: stops with an error that names the problem where the forces cannot be right.

@@ -19,6 +19,7 @@
 namespace HSGPU {
 namespace GPU {
   class GravityEngine;
+  struct GravityArgs;
 }
 }    // namespace HSGPU
 
@@ -59,6 +60,7 @@ class PairGravity : public Pair {
   // HSGPU_TIMING=all: printed by every rank
   double t_gather, t_upload, t_kernel, t_total;
   long ncalls, ncalls_once;    // calls, and calls that evaluated each pair once
+  long ncalls_overlap;         // calls with the gather overlapped with the kernels
   bool timing, timing_all;
 
   struct TargetSums {
@@ -70,6 +72,9 @@ class PairGravity : public Pair {
   void allocate();
   void compute_cpu(int nlocal);
   void compute_gpu(int nlocal);
+  void compute_gpu_overlapped(int nlocal, double &t_gathered);
+  void gpu_args(int nlocal, HSGPU::GPU::GravityArgs &a);
+  void add_gpu_results(int nlocal, bool energy_virial);
   void setup_gpu();
   void choose_sort_bins();
   void tally(int nlocal);

@@ -374,6 +374,89 @@ TEST_P(GravityGpu, LargeCoordinatesMixedKeepsDigits)
         GetParam() == Precision::Double ? 1000.0 : 1.0);
 }
 
+// Several MPI ranks: the sums over the rank's own atoms started before the gather of the
+// others (begin_own) and finished after it (finish_rest), for a rank at the start, in the
+// middle and at the end of the gathered array and one with no atoms; periodic with energy and
+// virial, unsoftened (the self pair tested), with a cutoff.  Masses change on the second of
+// three calls (the third must find the others' masses on the device).  Against the host's
+// double sums, and against the engine's plain compute() of the same targets.
+TEST_P(GravityGpu, OwnSourcesFirstAsOnSeveralMpiRanks)
+{
+  const bool fp32 = GetParam() != Precision::Double;
+  const double tol = tolerance(GetParam());
+  const double G = 0.7;
+  const Case cases[] = {{5003, true, false, 0.0, 0.05, 20.0},
+                        {3001, false, true, 0.0, 0.0, 40.0},
+                        {4099, true, false, 5.0, 0.02, 20.0}};
+  for (const Case &c : cases) {
+    Cloud s = make_cloud(c, 200 + (unsigned) c.n);
+    const double scale = (c.eps == 0.0 && GetParam() == Precision::Single) ? 10.0 : 1.0;
+    const long n = c.n;
+    const long ranges[][2] = {{0, n / 4}, {n / 3, n / 2}, {n - n / 5, n}, {n / 2, n / 2}};
+    for (const auto &rg : ranges) {
+      const long first = rg[0], nown = rg[1] - rg[0];
+      std::vector<long> tgt;
+      for (long i = first; i < first + nown; ++i) tgt.push_back(i);
+      for (int call = 0; call < 3; ++call) {
+        if (call == 1)
+          for (double &m : s.m) m *= 1.5;
+        GravityArgs a;
+        a.G = G;
+        a.eps2 = c.eps * c.eps;
+        a.cutsq = c.cut * c.cut;
+        for (int d = 0; d < 3; ++d) {
+          a.lo[d] = s.box.lo[d];
+          a.prd[d] = s.box.prd[d];
+          a.periodic[d] = s.box.periodic[d];
+        }
+        a.energy_virial = c.periodic;
+        Result got;
+        got.f.assign(3 * tgt.size(), -1.0);
+        got.e.assign(tgt.size(), -1.0);
+        got.v.assign(6 * tgt.size(), -1.0);
+        engine->set_targets((long) tgt.size(), tgt.data());
+        engine->begin_own(GetParam(), a, n, first, nown, s.x.data() + 3 * first,
+                          s.m.data() + first, call != 2);
+        engine->finish_rest(s.x.data(), s.m.data(), got.f.data(), got.e.data(), got.v.data());
+        const Result ref = cpu_core(s, tgt, G, c.eps, c.cut);
+        const double ef = rel_err(got.f, ref.f, fp32 ? &ref.fslack : nullptr, 3);
+        EXPECT_LT(ef, tol * scale) << "forces, n=" << n << " own " << first << "+" << nown
+                                   << " call " << call;
+        double ee = 0.0, evv = 0.0;
+        if (a.energy_virial) {
+          ee = rel_err(got.e, ref.e);
+          evv = rel_err(got.v, ref.v, fp32 ? &ref.vslack : nullptr, 6);
+          EXPECT_LT(ee, tol) << "energies, n=" << n << " own " << first << "+" << nown;
+          EXPECT_LT(evv, tol) << "virials, n=" << n << " own " << first << "+" << nown;
+        }
+        if (call < 2) continue;
+        // The same targets through compute() (after the split calls, so that these saw only
+        // their own uploads): the sums in one order, equal to round-off.
+        const Result whole = gpu(*engine, GetParam(), s, tgt, G, c.eps, c.cut, a.energy_virial);
+        const double ew = rel_err(got.f, whole.f, fp32 ? &ref.fslack : nullptr, 3);
+        EXPECT_LT(ew, tol * scale) << "split against compute(), n=" << n;
+          std::printf("[ GPU %-6s] n=%-5ld own %5ld+%-5ld %s%s: rel.err f %.2e e %.2e v %.2e, "
+                      "against compute() %.2e\n",
+                      name(GetParam()), n, first, nown, c.periodic ? "periodic ev" : "open",
+                      c.eps == 0.0 ? " unsoftened" : c.cut > 0 ? " cutoff" : "", ef, ee, evv, ew);
+      }
+    }
+  }
+  // A target outside the own range is refused, not summed without its self-pair test.
+  const Cloud s = make_cloud({100, false, false, 0.0, 0.05, 20.0}, 7);
+  std::vector<long> tgt = {10, 60};
+  GravityArgs a{};
+  a.G = 1.0;
+  a.eps2 = 0.01;
+  for (int d = 0; d < 3; ++d) {
+    a.lo[d] = s.box.lo[d];
+    a.prd[d] = s.box.prd[d];
+  }
+  engine->set_targets(2, tgt.data());
+  EXPECT_THROW(engine->begin_own(GetParam(), a, 100, 0, 50, s.x.data(), s.m.data(), true),
+               HSGPU::GPU::Error);
+}
+
 INSTANTIATE_TEST_SUITE_P(AllPrecisions, GravityGpu,
                          ::testing::Values(Precision::Single, Precision::Mixed, Precision::Double),
                          [](const ::testing::TestParamInfo<Precision> &i) {

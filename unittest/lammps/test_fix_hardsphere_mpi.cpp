@@ -287,12 +287,14 @@ TEST(FixHardSphereMPI, CudaGatheredStepAgreesWithSingleRank)
 // The gathered step where the atoms' arrays change under it: atoms sorted every 5 steps, per-
 // atom virial asked for every 7 steps (those steps run on the host, the next one gathers every
 // array again), a tenth of the atoms deleted midway (compress no: delete_atoms's default
-// renumbers the atoms rank by rank, and IDs order simultaneous events).  With the host's reference
-// step in the device step's place (it reads every array it is given, so stale copies on rank 0
-// would show), against one rank without it, bit for bit.
-TEST(FixHardSphereMPI, HostResidentGatheredStepFollowsChangedArrays)
+// renumbers the atoms rank by rank, and IDs order simultaneous events).  On the CUDA device
+// where there is one (each rank's arrays copied to rank 0's device and the results read back
+// from there, CUDA IPC), else with the host's reference step in the device step's place (it
+// reads every array it is given, so stale copies on rank 0 would show); against one rank
+// without either, bit for bit.
+TEST(FixHardSphereMPI, GatheredStepFollowsChangedArrays)
 {
-  if (HSGPU::GPU::device_count() > 0) GTEST_SKIP() << "a CUDA device is present";
+  const bool cuda = HSGPU::GPU::device_count() > 0;
   int me = 0, np = 1;
   MPI_Comm_rank(MPI_COMM_WORLD, &me);
   MPI_Comm_size(MPI_COMM_WORLD, &np);
@@ -301,10 +303,10 @@ TEST(FixHardSphereMPI, HostResidentGatheredStepFollowsChangedArrays)
       "compute sred all reduce sum c_sa[1] c_sa[3]", "fix sav all ave/time 7 1 7 c_sred[1]"};
   const std::vector<std::string> midway = {"group gone id 1:500:10",
                                            "delete_atoms group gone compress no"};
-  setenv("HSGPU_RESIDENT_HOST", "1", 1);
+  if (!cuda) setenv("HSGPU_RESIDENT_HOST", "1", 1);
   const Snapshot world = run_on(MPI_COMM_WORLD, "parallel gpu yes tc 0.05 tc/slow no", 300, false,
                                 false, extra, midway);
-  unsetenv("HSGPU_RESIDENT_HOST");
+  if (!cuda) unsetenv("HSGPU_RESIDENT_HOST");
   if (me == 0) {
     const Snapshot single =
         run_on(MPI_COMM_SELF, "serial tc 0.05 tc/slow no", 300, false, false, extra, midway);
@@ -316,19 +318,20 @@ TEST(FixHardSphereMPI, HostResidentGatheredStepFollowsChangedArrays)
     // Most steps on the "device"; those with per-atom virial (every seventh) on the host.
     EXPECT_GT(world.on_device, 200.0);
     EXPECT_LE(world.on_device, 300.0 - 42.0);
-    std::printf("[ MPI      ] %d ranks, gathered host reference step with sorts, per-atom virial "
-                "and deletions: %.0f collisions, %.0f of 300 steps on the device\n",
-                np, single.f[1], world.on_device);
+    std::printf("[ MPI      ] %d ranks, gathered %s step with sorts, per-atom virial and "
+                "deletions: %.0f collisions, %.0f of 300 steps on the device\n",
+                np, cuda ? "CUDA" : "host reference", single.f[1], world.on_device);
   }
   MPI_Barrier(MPI_COMM_WORLD);
 }
 
 // The gathered step with a group other than all: each rank packs its group's atoms, the
-// results go back to them (80 of the 500 atoms held still outside the group).  Host reference
-// on 2 and 4 ranks against one rank in order serial, bit for bit.
-TEST(FixHardSphereMPI, HostResidentGatheredStepOfAGroup)
+// results go back to them (80 of the 500 atoms held still outside the group).  On the CUDA
+// device, or the host reference where there is none, on 2 and 4 ranks against one rank in
+// order serial, bit for bit.
+TEST(FixHardSphereMPI, GatheredStepOfAGroup)
 {
-  if (HSGPU::GPU::device_count() > 0) GTEST_SKIP() << "a CUDA device is present";
+  const bool cuda = HSGPU::GPU::device_count() > 0;
   int me = 0;
   MPI_Comm_rank(MPI_COMM_WORLD, &me);
   auto extra = [](const std::string &order) {
@@ -339,10 +342,10 @@ TEST(FixHardSphereMPI, HostResidentGatheredStepOfAGroup)
         "zhi 1.0 tc 0.05 tc/slow no order " +
             order};
   };
-  setenv("HSGPU_RESIDENT_HOST", "1", 1);
+  if (!cuda) setenv("HSGPU_RESIDENT_HOST", "1", 1);
   const Snapshot world =
       run_on(MPI_COMM_WORLD, "parallel", 300, false, false, extra("parallel gpu yes"));
-  unsetenv("HSGPU_RESIDENT_HOST");
+  if (!cuda) unsetenv("HSGPU_RESIDENT_HOST");
   if (me == 0) {
     const Snapshot single = run_on(MPI_COMM_SELF, "serial", 300, false, false, extra("serial"));
     EXPECT_EQ(max_abs_diff(world.x, single.x), 0.0);
@@ -350,9 +353,9 @@ TEST(FixHardSphereMPI, HostResidentGatheredStepOfAGroup)
     EXPECT_EQ(world.f[1], single.f[1]) << "collisions in total";
     EXPECT_GT(single.f[1], 3000.0);
     EXPECT_GT(world.on_device, 250.0);
-    std::printf("[ MPI      ] gathered host reference step of a group: %.0f collisions, %.0f of "
-                "300 steps on the device\n",
-                single.f[1], world.on_device);
+    std::printf("[ MPI      ] gathered %s step of a group: %.0f collisions, %.0f of 300 steps "
+                "on the device\n",
+                cuda ? "CUDA" : "host reference", single.f[1], world.on_device);
   }
   MPI_Barrier(MPI_COMM_WORLD);
 }

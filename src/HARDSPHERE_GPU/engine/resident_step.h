@@ -117,6 +117,9 @@ namespace Collide {
     // x, v and f are in the step's own buffers already (share_inputs(), put there by the
     // processes that hold the atoms, and put_inputs()): x, v and f here are not read.
     bool inputs_shared = false;
+    // The same for tlast, radius, rmass, type and id (put_statics() and the processes'
+    // GPU::PeerInputs::put_statics()): not read here; tlast is still written back.
+    bool statics_shared = false;
     // The caller vouches that tlast, radius, rmass, type and id hold what they held at the end
     // of the last run_atoms() that returned `done` (same atoms in the same order, nothing
     // written to them since): the step may then keep its device copies instead of copying
@@ -135,24 +138,53 @@ namespace Collide {
     /// per-atom arrays, a run ends): the step lets go of any hold it keeps on them (the CUDA
     /// step page-locks them in place between steps).
     virtual void forget_host_arrays() {}
-    /// The gathered step of several ranks on one node: reserves the step's buffers of x, v and
-    /// f for n atoms and writes handles to them, which other processes of the node can open
-    /// (GPU::PeerInputs) to copy their atoms' x, v and f in place, into `handles` (opaque
-    /// bytes, the same while the buffers stay where they are).  False where the step has no
-    /// such buffers (the host's reference step) or the device refuses; then nothing changed.
-    virtual bool share_inputs(long n, std::vector<char> &handles)
+    /// The gathered step of several ranks on one node: reserves the step's buffers of x, v, f,
+    /// tlast, radius, rmass, type and id (id_bytes each) for n atoms and writes handles to
+    /// them, which other processes of the node can open (GPU::PeerInputs) to copy their atoms'
+    /// arrays in place, into `handles` (opaque bytes, the same while the buffers stay where
+    /// they are).  False where the step has no such buffers (the host's reference step) or the
+    /// device refuses; then nothing changed.
+    virtual bool share_inputs(long n, int id_bytes, std::vector<char> &handles)
     {
       (void) n;
+      (void) id_bytes;
       handles.clear();
       return false;
     }
-    /// Copies count atoms' x, v and f (3 each) from this process into atoms [first, first +
-    /// count) of the buffers of share_inputs(), and waits for the copy.
-    virtual void put_inputs(long first, long count, const double *x, const double *v,
-                            const double *f)
+    /// After a run_atoms() with ResidentAtoms::results that returned `done`: handles to the
+    /// step's device copies of those results (ResidentResult each, in the listed order) and of
+    /// every atom's tlast, which other processes of the node can open (GPU::PeerInputs::
+    /// open_results()) to read their atoms' results in place.  They stay valid until the next
+    /// share_inputs(), put_inputs(), put_statics() or run_atoms().  False where the step has no
+    /// such copies; then `handles` is empty.
+    virtual bool share_results(std::vector<char> &handles)
+    {
+      handles.clear();
+      return false;
+    }
+    /// Copies count atoms' tlast, radius, rmass, type and id from this process into atoms
+    /// [first, first + count) of the buffers of share_inputs(), and waits for the copy.
+    virtual void put_statics(long first, long count, const double *tlast, const double *radius,
+                             const double *rmass, const int *type, const void *id, int id_bytes)
     {
       (void) first;
       (void) count;
+      (void) tlast;
+      (void) radius;
+      (void) rmass;
+      (void) type;
+      (void) id;
+      (void) id_bytes;
+    }
+    /// Copies count atoms' x, v and f (3 each) from this process into atoms [first, first +
+    /// count) of the buffers of share_inputs(), and waits for the copy.  room: atoms the
+    /// arrays x, v, f hold (at least count; the CUDA step page-locks that much once).
+    virtual void put_inputs(long first, long count, const double *x, const double *v,
+                            const double *f, long room)
+    {
+      (void) first;
+      (void) count;
+      (void) room;
       (void) x;
       (void) v;
       (void) f;

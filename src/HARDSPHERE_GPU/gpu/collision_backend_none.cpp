@@ -40,7 +40,20 @@ namespace GPU {
   {
     throw Error("built without CUDA");
   }
-  void PeerInputs::put(long, long, const double *, const double *, const double *)
+  void PeerInputs::put(long, long, const double *, const double *, const double *, long)
+  {
+    throw Error("built without CUDA");
+  }
+  void PeerInputs::put_statics(long, long, const double *, const double *, const double *,
+                               const int *, const void *, int)
+  {
+    throw Error("built without CUDA");
+  }
+  void PeerInputs::open_results(const std::vector<char> &)
+  {
+    throw Error("built without CUDA");
+  }
+  void PeerInputs::get_result(int, size_t, size_t, void *)
   {
     throw Error("built without CUDA");
   }

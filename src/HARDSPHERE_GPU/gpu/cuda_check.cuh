@@ -93,26 +93,30 @@ namespace GPU {
   };
 
   /// A caller's host range page-locked in place (cudaHostRegister), so that copies from it
-  /// move at the pinned rate.  keep() holds [q, q + n): a range that moved or changed length is
-  /// released and the new one locked.  Where the driver refuses (memory limits, an overlap with
+  /// move at the pinned rate.  keep() holds [q, q + n): a locked range that covers it stays;
+  /// else it is released and [q, q + max(n, room)) locked (room: what the caller's array holds,
+  /// so that a later, longer range in the same array needs no new lock: registering costs
+  /// about as much as copying).  Where the driver refuses (memory limits, an overlap with
   /// another locked range) `locking` turns false and the copies stay pageable: slower, the same
   /// bytes.  Released by its owner.
   struct HostRangeLock {
     void *p = nullptr;
     size_t bytes = 0;
 
-    void keep(const void *q, size_t n, bool &locking)
+    void keep(const void *q, size_t n, bool &locking, size_t room = 0)
     {
-      if (p == q && bytes == n) return;
+      const char *c = static_cast<const char *>(q), *lo = static_cast<const char *>(p);
+      if (p && c >= lo && c + n <= lo + bytes) return;
       release();
       if (!locking || !q || n == 0) return;
-      if (cudaHostRegister(const_cast<void *>(q), n, cudaHostRegisterDefault) != cudaSuccess) {
+      const size_t want = room > n ? room : n;
+      if (cudaHostRegister(const_cast<void *>(q), want, cudaHostRegisterDefault) != cudaSuccess) {
         (void) cudaGetLastError();
         locking = false;
         return;
       }
       p = const_cast<void *>(q);
-      bytes = n;
+      bytes = want;
     }
 
     void release()
@@ -126,19 +130,42 @@ namespace GPU {
 
   /// Copies count atoms' x, v and f (3 doubles each) from the host into atoms [first, first +
   /// count) of the device arrays dst[0 .. 2] (this process's, or another's opened by CUDA IPC)
-  /// on `stream`, each source range page-locked in place by locks[0 .. 2], and waits.
+  /// on `stream`, each source array page-locked in place by locks[0 .. 2] for `room` atoms
+  /// (what the arrays hold, at least count), and waits.
   inline void copy_xvf_to_device(double *const dst[3], long first, long count, const double *x,
                                  const double *v, const double *f, HostRangeLock locks[3],
-                                 bool &locking, cudaStream_t stream, const char *what)
+                                 bool &locking, cudaStream_t stream, const char *what,
+                                 long room = 0)
   {
     if (count <= 0) return;
     const double *src[3] = {x, v, f};
     const size_t bytes = (size_t) 3 * count * sizeof(double);
+    const size_t held = (size_t) 3 * (room > count ? room : count) * sizeof(double);
     for (int k = 0; k < 3; ++k) {
-      locks[k].keep(src[k], bytes, locking);
+      locks[k].keep(src[k], bytes, locking, held);
       cuda_check(cudaMemcpyAsync(dst[k] + 3 * first, src[k], bytes, cudaMemcpyDefault, stream),
                  what);
     }
+    cuda_check(cudaStreamSynchronize(stream), what);
+  }
+
+  /// Copies count atoms' times of last collision, radii, masses (doubles), types (ints) and
+  /// IDs (id_bytes each) from the host into atoms [first, first + count) of the device arrays
+  /// dst[0 .. 4] on `stream` (pageable: they move only after atoms moved in the arrays), and
+  /// waits.
+  inline void copy_statics_to_device(void *const dst[5], long first, long count,
+                                     const double *tlast, const double *radius,
+                                     const double *rmass, const int *type, const void *id,
+                                     int id_bytes, cudaStream_t stream, const char *what)
+  {
+    if (count <= 0) return;
+    const void *src[5] = {tlast, radius, rmass, type, id};
+    const size_t per[5] = {sizeof(double), sizeof(double), sizeof(double), sizeof(int),
+                           (size_t) id_bytes};
+    for (int k = 0; k < 5; ++k)
+      cuda_check(cudaMemcpyAsync(static_cast<char *>(dst[k]) + per[k] * first, src[k],
+                                 per[k] * count, cudaMemcpyDefault, stream),
+                 what);
     cuda_check(cudaStreamSynchronize(stream), what);
   }
 

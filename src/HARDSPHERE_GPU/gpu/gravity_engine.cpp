@@ -41,7 +41,33 @@ namespace GPU {
     void order_targets(const GravityArgs &a, const int *&targets, const int *&out_slot);
     bool last_once = false;
     float kernel_ms = 0.0f;
+    // begin_own() ... finish_rest(): the other sources are uploaded on copy_stream while
+    // the own sums run, `copied` orders them before the other sums.
+    cudaStream_t copy_stream = nullptr;
+    cudaEvent_t copied = nullptr;
+    struct Split {
+      bool open = false;
+      Precision p = Precision::Single;
+      GravityArgs a{};
+      GravityShape shape{};    // block and ilp; splits: all ranges together
+      long first = 0, n_own = 0;
+      int splits_low = 0, splits_own = 0, splits_high = 0;
+      bool masses_pending = false;    // the other sources' masses still to upload
+      const int *targets = nullptr, *slot = nullptr;
+    } split;
+    double own_max_mass = 0.0;
+    void upload_range(DeviceBuffer &b, const double *h, long begin, long end, int per,
+                      cudaStream_t st, const char *what);
   };
+
+  void GravityEngine::Impl::upload_range(DeviceBuffer &b, const double *h, long begin, long end,
+                                         int per, cudaStream_t st, const char *what)
+  {
+    if (end <= begin) return;
+    cuda_check(cudaMemcpyAsync((double *) b.ptr + per * begin, h + per * begin,
+                               per * (end - begin) * sizeof(double), cudaMemcpyHostToDevice, st),
+               what);
+  }
 
   void GravityEngine::Impl::order_targets(const GravityArgs &a, const int *&targets,
                                           const int *&out_slot)
@@ -91,6 +117,8 @@ namespace GPU {
          {&impl->x, &impl->m, &impl->src, &impl->tidx, &impl->scratch, &impl->f, &impl->e, &impl->v,
           &impl->keys, &impl->tsorted, &impl->slot, &impl->sort_temp})
       b->release();
+    if (impl->copied) cudaEventDestroy(impl->copied);
+    if (impl->copy_stream) cudaStreamDestroy(impl->copy_stream);
     if (impl->start) cudaEventDestroy(impl->start);
     if (impl->stop) cudaEventDestroy(impl->stop);
     if (impl->stream) cudaStreamDestroy(impl->stream);
@@ -192,11 +220,18 @@ namespace GPU {
                                  (double *) impl->v.ptr, impl->stream),
                  "gravity kernel");
     }
+    fetch_results(a.energy_virial, f, e, v);
+  }
+
+  // Records the stop event, downloads the results of the last sums and waits for them.
+  void GravityEngine::fetch_results(bool energy_virial, double *f, double *e, double *v)
+  {
+    const long nt = impl->ntgt;
     cuda_check(cudaEventRecord(impl->stop, impl->stream), "cudaEventRecord");
     cuda_check(cudaMemcpyAsync(f, impl->f.ptr, 3 * nt * sizeof(double), cudaMemcpyDeviceToHost,
                                impl->stream),
                "cudaMemcpy(forces)");
-    if (a.energy_virial) {
+    if (energy_virial) {
       cuda_check(cudaMemcpyAsync(e, impl->e.ptr, nt * sizeof(double), cudaMemcpyDeviceToHost,
                                  impl->stream),
                  "cudaMemcpy(energies)");
@@ -207,6 +242,125 @@ namespace GPU {
     cuda_check(cudaStreamSynchronize(impl->stream), "gravity kernel (synchronize)");
     cuda_check(cudaEventElapsedTime(&impl->kernel_ms, impl->start, impl->stop),
                "cudaEventElapsedTime");
+  }
+
+  void GravityEngine::begin_own(Precision p, const GravityArgs &a, long n, long first, long n_own,
+                                const double *x_own, const double *m_own, bool masses_changed)
+  {
+    cuda_check(cudaSetDevice(impl->device), "cudaSetDevice");
+    Impl &I = *impl;
+    const long nt = I.ntgt;
+    if (first < 0 || n_own < 0 || first + n_own > n)
+      throw Error("gravity engine: the own sources lie outside the system");
+    for (long t = 0; t < nt; ++t)
+      if (I.host_tidx[t] < first || I.host_tidx[t] >= first + n_own)
+        throw Error("gravity engine: a target is not among the rank's own sources");
+    if (!I.copy_stream) {
+      cuda_check(cudaStreamCreateWithFlags(&I.copy_stream, cudaStreamNonBlocking),
+                 "cudaStreamCreate");
+      cuda_check(cudaEventCreateWithFlags(&I.copied, cudaEventDisableTiming), "cudaEventCreate");
+    }
+    const bool masses = masses_changed || n != I.nsrc;
+    I.nsrc = n;
+    Impl::Split &S = I.split;
+    S.open = true;
+    S.p = p;
+    S.a = a;
+    S.first = first;
+    S.n_own = n_own;
+    S.masses_pending = masses;
+    // One (block, ilp) for every range, chosen by the system size as compute() does; each
+    // range gets the splits that fill the device by itself.
+    GravityShape s = run_shape(p, choose_shape(p, a, nt, n, I.num_sms), a);
+    S.splits_own = n_own > 0 ? auto_splits(s, nt, n_own, I.num_sms) : 0;
+    S.splits_low = first > 0 ? auto_splits(s, nt, first, I.num_sms) : 0;
+    S.splits_high = n > first + n_own ? auto_splits(s, nt, n - first - n_own, I.num_sms) : 0;
+    s.splits = S.splits_low + S.splits_own + S.splits_high;
+    S.shape = s;
+    I.x.reserve(3 * n * sizeof(double) + 1, "cudaMalloc(positions)");
+    I.m.reserve(n * sizeof(double) + 1, "cudaMalloc(masses)");
+    I.src.reserve(source_bytes(p) * n + 1, "cudaMalloc(sources)");
+    I.scratch.reserve(scratch_bytes(p, s, nt, a.energy_virial) + 1, "cudaMalloc(scratch)");
+    I.f.reserve(3 * nt * sizeof(double) + 1, "cudaMalloc(forces)");
+    if (a.energy_virial) {
+      I.e.reserve(nt * sizeof(double) + 1, "cudaMalloc(energies)");
+      I.v.reserve(6 * nt * sizeof(double) + 1, "cudaMalloc(virials)");
+    }
+    cuda_check(cudaMemcpyAsync((double *) I.x.ptr + 3 * first, x_own, 3 * n_own * sizeof(double),
+                               cudaMemcpyHostToDevice, I.stream),
+               "cudaMemcpy(own positions)");
+    if (masses) {
+      cuda_check(cudaMemcpyAsync((double *) I.m.ptr + first, m_own, n_own * sizeof(double),
+                                 cudaMemcpyHostToDevice, I.stream),
+                 "cudaMemcpy(own masses)");
+      I.own_max_mass = 0.0;
+      for (long i = 0; i < n_own; ++i) I.own_max_mass = std::max(I.own_max_mass, m_own[i]);
+    }
+    const size_t sb = source_bytes(p);
+    cuda_check(pack_sources(p, (const double *) I.x.ptr + 3 * first,
+                            (const double *) I.m.ptr + first, n_own, a,
+                            (char *) I.src.ptr + sb * first, I.stream),
+               "pack_sources kernel");
+    cuda_check(cudaEventRecord(I.start, I.stream), "cudaEventRecord");
+    S.targets = (const int *) I.tidx.ptr;
+    S.slot = nullptr;
+    if (p == Precision::Mixed && nt > 0) I.order_targets(a, S.targets, S.slot);
+    GravityShape own = s;
+    own.splits = S.splits_own;
+    // Only the own range holds targets, so only it may need the self-pair test.
+    cuda_check(compute_partials(p, own, I.src.ptr,
+                                SourceRange{first, first + n_own, S.splits_low, s.splits},
+                                S.targets, nt, a, needs_self_test(p, a, I.own_max_mass),
+                                I.scratch.ptr, I.stream),
+               "gravity kernel (own sources)");
+    I.last_once = false;
+  }
+
+  void GravityEngine::finish_rest(const double *x, const double *m, double *f, double *e,
+                                  double *v)
+  {
+    cuda_check(cudaSetDevice(impl->device), "cudaSetDevice");
+    Impl &I = *impl;
+    Impl::Split &S = I.split;
+    if (!S.open) throw Error("gravity engine: finish_rest() without begin_own()");
+    S.open = false;
+    const long n = I.nsrc, nt = I.ntgt, hi = S.first + S.n_own;
+    // The other sources go up on their own stream while the own sums run.
+    I.upload_range(I.x, x, 0, S.first, 3, I.copy_stream, "cudaMemcpy(positions)");
+    I.upload_range(I.x, x, hi, n, 3, I.copy_stream, "cudaMemcpy(positions)");
+    if (S.masses_pending) {
+      I.upload_range(I.m, m, 0, S.first, 1, I.copy_stream, "cudaMemcpy(masses)");
+      I.upload_range(I.m, m, hi, n, 1, I.copy_stream, "cudaMemcpy(masses)");
+      // compute() after these calls tests the self pair by the largest mass of all.
+      I.max_mass = I.own_max_mass;
+      for (long i = 0; i < S.first; ++i) I.max_mass = std::max(I.max_mass, m[i]);
+      for (long i = hi; i < n; ++i) I.max_mass = std::max(I.max_mass, m[i]);
+    }
+    cuda_check(cudaEventRecord(I.copied, I.copy_stream), "cudaEventRecord");
+    cuda_check(cudaStreamWaitEvent(I.stream, I.copied, 0), "cudaStreamWaitEvent");
+    const size_t sb = source_bytes(S.p);
+    const struct {
+      long begin, end;
+      int split0, splits;
+    } rest[2] = {{0, S.first, 0, S.splits_low}, {hi, n, S.splits_low + S.splits_own, S.splits_high}};
+    for (const auto &r : rest) {
+      if (r.end <= r.begin) continue;
+      cuda_check(pack_sources(S.p, (const double *) I.x.ptr + 3 * r.begin,
+                              (const double *) I.m.ptr + r.begin, r.end - r.begin, S.a,
+                              (char *) I.src.ptr + sb * r.begin, I.stream),
+                 "pack_sources kernel");
+      GravityShape part = S.shape;
+      part.splits = r.splits;
+      cuda_check(compute_partials(S.p, part, I.src.ptr,
+                                  SourceRange{r.begin, r.end, r.split0, S.shape.splits}, S.targets,
+                                  nt, S.a, false, I.scratch.ptr, I.stream),
+                 "gravity kernel (other sources)");
+    }
+    cuda_check(sum_partials(S.p, I.scratch.ptr, S.shape.splits, nt, nt, S.targets, S.slot,
+                            (const double *) I.m.ptr, S.a.G, S.a.energy_virial, (double *) I.f.ptr,
+                            (double *) I.e.ptr, (double *) I.v.ptr, I.stream),
+               "gravity kernel (sums)");
+    fetch_results(S.a.energy_virial, f, e, v);
   }
 
   // Reserves, records the start event and launches the pairs-once kernels for all sources;

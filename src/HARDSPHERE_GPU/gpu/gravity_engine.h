@@ -41,7 +41,21 @@ namespace GPU {
     void compute(Precision p, const GravityArgs &a, double *f, double *e, double *v,
                  GravityShape shape = GravityShape{0, 0, 0});
 
-    /// Kernel time of the last compute() in milliseconds (CUDA events).
+    /// Several MPI ranks, the sums in two parts so that the gather of the other ranks'
+    /// positions can run while the device sums over the rank's own atoms.  The n sources of
+    /// the system hold this rank's atoms at [first, first + n_own); the targets (set_targets
+    /// first) must lie there.  begin_own() uploads the own positions x_own (3 n_own, wrapped
+    /// as for set_sources) and, where masses_changed or n changed, the own masses m_own, and
+    /// starts the sums over the own sources; it returns at once.  finish_rest() uploads the
+    /// other sources from the whole arrays x (3n) and m (n; the own range is not read),
+    /// sums over them and returns the results as compute() does.  The sums are those of
+    /// compute() in another order (equal to round-off).  Not with pairs_once.
+    void begin_own(Precision p, const GravityArgs &a, long n, long first, long n_own,
+                   const double *x_own, const double *m_own, bool masses_changed);
+    void finish_rest(const double *x, const double *m, double *f, double *e, double *v);
+
+    /// Kernel time of the last compute() in milliseconds (CUDA events); after finish_rest(),
+    /// from the start of the own sums to the end, waits for the other sources included.
     float last_kernel_ms() const;
     /// Whether the last compute() evaluated each pair once (GravityArgs::pairs_once).
     bool last_pairs_once() const;
@@ -50,6 +64,7 @@ namespace GPU {
     struct Impl;
     Impl *impl;
     void launch_pairs_once(Precision p, const GravityArgs &a, int ilp);
+    void fetch_results(bool energy_virial, double *f, double *e, double *v);
   };
 
 }    // namespace GPU

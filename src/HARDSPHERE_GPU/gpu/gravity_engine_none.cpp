@@ -31,6 +31,15 @@ namespace GPU {
   {
     throw Error("HARDSPHERE_GPU was built without CUDA");
   }
+  void GravityEngine::begin_own(Precision, const GravityArgs &, long, long, long, const double *,
+                                const double *, bool)
+  {
+    throw Error("HARDSPHERE_GPU was built without CUDA");
+  }
+  void GravityEngine::finish_rest(const double *, const double *, double *, double *, double *)
+  {
+    throw Error("HARDSPHERE_GPU was built without CUDA");
+  }
   float GravityEngine::last_kernel_ms() const
   {
     return 0.0f;

@@ -145,9 +145,11 @@ namespace GPU {
     }
 
     // ---------------------------------------------------------------- tiled kernel
-    // Grid: x = ceil(ntgt / (BLOCK*ILP)) target groups, y = splits.  Block: BLOCK threads.
+    // Grid: x = ceil(ntgt / (BLOCK*ILP)) target groups, y = the splits of the source range
+    // [jlo, jhi), chunk sources each.  Block: BLOCK threads.
     // Shared memory: BLOCK packed sources (16 or 32 B each).
-    // Scratch output per (split, target): 3 (+1 +6) partial sums of type P.
+    // Scratch output per (split, target): 3 (+1 +6) partial sums of type P; block row y
+    // writes split split0 + y of a scratch laid out for nsplits splits.
     template <bool EV, class Part, class R>
     __device__ inline void add_into(TargetSums<Part> &dst, TargetSums<R> &src)
     {
@@ -167,9 +169,10 @@ namespace GPU {
 
     template <int PREC, bool PER, bool EV, bool CUT, int BLOCK, int ILP>
     __global__ void __launch_bounds__(BLOCK)
-        gravity_tiles(const typename PrecTypes<PREC>::Src *__restrict__ src, long nsrc, long chunk,
-                      const int *__restrict__ tidx, long ntgt, KArgs<typename PrecTypes<PREC>::R> k,
-                      bool self_test, typename PrecTypes<PREC>::Part *__restrict__ part)
+        gravity_tiles(const typename PrecTypes<PREC>::Src *__restrict__ src, long jlo, long jhi,
+                      long chunk, int split0, int nsplits, const int *__restrict__ tidx, long ntgt,
+                      KArgs<typename PrecTypes<PREC>::R> k, bool self_test,
+                      typename PrecTypes<PREC>::Part *__restrict__ part)
     {
       using R = typename PrecTypes<PREC>::R;
       using Part = typename PrecTypes<PREC>::Part;
@@ -178,9 +181,9 @@ namespace GPU {
       constexpr bool MIXED = (PREC == 1);
       __shared__ Tile sh[BLOCK];
 
-      const long split = blockIdx.y;
-      const long jbeg = split * chunk;
-      const long jend = min(nsrc, jbeg + chunk);
+      const long split = split0 + (long) blockIdx.y;
+      const long jbeg = jlo + (long) blockIdx.y * chunk;
+      const long jend = min(jhi, jbeg + chunk);
       const long first = blockIdx.x * (long) ILP * BLOCK;
 
       // Mixed: the block's origin is its first target's position.
@@ -269,9 +272,9 @@ namespace GPU {
         part[3 * o + 1] = total[q].a[1];
         part[3 * o + 2] = total[q].a[2];
         if (EV) {
-          Part *pe = part + 3 * ntgt * gridDim.y;
+          Part *pe = part + 3 * ntgt * nsplits;
           pe[o] = total[q].e;
-          Part *pv = pe + ntgt * gridDim.y;
+          Part *pv = pe + ntgt * nsplits;
           for (int c = 0; c < 6; ++c) pv[6 * o + c] = total[q].v[c];
         }
       }
@@ -337,16 +340,18 @@ namespace GPU {
     }
 
     template <int PREC, bool PER, bool EV, bool CUT, int BLOCK, int ILP>
-    void launch_tiles(const GravityShape &s, const void *src, long nsrc, const int *tidx, long ntgt,
-                      const GravityArgs &a, bool self_test, void *scratch, cudaStream_t st)
+    void launch_tiles(const GravityShape &s, const void *src, const SourceRange &r, const int *tidx,
+                      long ntgt, const GravityArgs &a, bool self_test, void *scratch,
+                      cudaStream_t st)
     {
       using T = PrecTypes<PREC>;
       const long groups = (ntgt + (long) BLOCK * ILP - 1) / ((long) BLOCK * ILP);
-      const long chunk = ((nsrc + s.splits - 1) / s.splits + BLOCK - 1) / BLOCK * BLOCK;
+      const long n = r.end - r.begin;
+      const long chunk = ((n + s.splits - 1) / s.splits + BLOCK - 1) / BLOCK * BLOCK;
       dim3 grid((unsigned) groups, (unsigned) s.splits);
       gravity_tiles<PREC, PER, EV, CUT, BLOCK, ILP><<<grid, BLOCK, 0, st>>>(
-          (const typename T::Src *) src, nsrc, chunk, tidx, ntgt, make_kargs<typename T::R>(a),
-          self_test, (typename T::Part *) scratch);
+          (const typename T::Src *) src, r.begin, r.end, chunk, r.split0, r.nsplits, tidx, ntgt,
+          make_kargs<typename T::R>(a), self_test, (typename T::Part *) scratch);
     }
 
     // The force-only open-box kernel without cutoff (the hot path of the benchmark and of most
@@ -358,18 +363,18 @@ namespace GPU {
     }
 
     template <int PREC, bool PER, bool EV, bool CUT, int I = 0>
-    cudaError_t dispatch_hot(const GravityShape &s, const void *src, long nsrc, const int *tidx,
-                             long ntgt, const GravityArgs &a, bool self_test, void *scratch,
+    cudaError_t dispatch_hot(const GravityShape &s, const void *src, const SourceRange &r,
+                             const int *tidx, long ntgt, const GravityArgs &a, bool self_test, void *scratch,
                              cudaStream_t st)
     {
       if constexpr (I < NUM_HOT_SHAPES) {
         constexpr int B = HOT_SHAPES[I][0], L = HOT_SHAPES[I][1];
         if (s.block == B && s.ilp == L) {
-          launch_tiles<PREC, PER, EV, CUT, B, L>(s, src, nsrc, tidx, ntgt, a, self_test, scratch,
+          launch_tiles<PREC, PER, EV, CUT, B, L>(s, src, r, tidx, ntgt, a, self_test, scratch,
                                                  st);
           return cudaGetLastError();
         }
-        return dispatch_hot<PREC, PER, EV, CUT, I + 1>(s, src, nsrc, tidx, ntgt, a, self_test,
+        return dispatch_hot<PREC, PER, EV, CUT, I + 1>(s, src, r, tidx, ntgt, a, self_test,
                                                        scratch, st);
       } else {
         return cudaErrorInvalidValue;    // compiled_shape only hands out listed shapes
@@ -378,24 +383,24 @@ namespace GPU {
 
     // Launches the compiled (BLOCK, ILP) variant of shape s (one that compiled_shape returned).
     template <int PREC, bool PER, bool EV, bool CUT>
-    cudaError_t dispatch_shape(const GravityShape &s, const void *src, long nsrc, const int *tidx,
-                               long ntgt, const GravityArgs &a, bool self_test, void *scratch,
+    cudaError_t dispatch_shape(const GravityShape &s, const void *src, const SourceRange &r,
+                               const int *tidx, long ntgt, const GravityArgs &a, bool self_test, void *scratch,
                                cudaStream_t st)
     {
       if constexpr (!PER && !EV && !CUT) {
-        return dispatch_hot<PREC, PER, EV, CUT>(s, src, nsrc, tidx, ntgt, a, self_test, scratch,
+        return dispatch_hot<PREC, PER, EV, CUT>(s, src, r, tidx, ntgt, a, self_test, scratch,
                                                 st);
       } else {
         constexpr int L = (PREC == 2) ? 1 : 2;
-        launch_tiles<PREC, PER, EV, CUT, 256, L>(s, src, nsrc, tidx, ntgt, a, self_test, scratch,
+        launch_tiles<PREC, PER, EV, CUT, 256, L>(s, src, r, tidx, ntgt, a, self_test, scratch,
                                                  st);
         return cudaGetLastError();
       }
     }
 
     template <int PREC>
-    cudaError_t dispatch_flags(const GravityShape &s, const void *src, long nsrc, const int *tidx,
-                               long ntgt, const GravityArgs &a, bool self_test, void *scratch,
+    cudaError_t dispatch_flags(const GravityShape &s, const void *src, const SourceRange &r,
+                               const int *tidx, long ntgt, const GravityArgs &a, bool self_test, void *scratch,
                                cudaStream_t st)
     {
       const bool per = a.periodic[0] || a.periodic[1] || a.periodic[2];
@@ -403,7 +408,7 @@ namespace GPU {
       const bool cut = a.cutsq > 0.0;
 #define HSGPU_CASE(P, E, C)            \
   if (per == P && ev == E && cut == C) \
-    return dispatch_shape<PREC, P, E, C>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
+    return dispatch_shape<PREC, P, E, C>(s, src, r, tidx, ntgt, a, self_test, scratch, st);
       HSGPU_CASE(false, false, false)
       HSGPU_CASE(false, false, true)
       HSGPU_CASE(false, true, false)
@@ -555,25 +560,43 @@ namespace GPU {
     return cudaGetLastError();
   }
 
+  bool needs_self_test(Precision p, const GravityArgs &a, double max_mass)
+  {
+    // The self pair adds exactly zero force when m / eps^3 is finite in the pair arithmetic.
+    const double eps3 = a.eps2 * std::sqrt(a.eps2);
+    const double limit = (p == Precision::Double) ? 1e300 : 1e30;
+    return !(!a.energy_virial && a.eps2 > 1e-30 && max_mass < limit * eps3);
+  }
+
+  GravityShape run_shape(Precision p, const GravityShape &want, const GravityArgs &a)
+  {
+    return compiled_shape(p, want, a);
+  }
+
+  cudaError_t compute_partials(Precision p, const GravityShape &s, const void *src,
+                               const SourceRange &r, const int *tidx, long ntgt,
+                               const GravityArgs &a, bool self_test, void *scratch,
+                               cudaStream_t st)
+  {
+    if (ntgt <= 0 || s.splits <= 0) return cudaSuccess;
+    if (r.begin < 0 || r.end < r.begin || r.split0 < 0 || r.split0 + s.splits > r.nsplits)
+      return cudaErrorInvalidValue;
+    const GravityShape c = compiled_shape(p, s, a);
+    if (p == Precision::Single) return dispatch_flags<0>(c, src, r, tidx, ntgt, a, self_test, scratch, st);
+    if (p == Precision::Mixed) return dispatch_flags<1>(c, src, r, tidx, ntgt, a, self_test, scratch, st);
+    return dispatch_flags<2>(c, src, r, tidx, ntgt, a, self_test, scratch, st);
+  }
+
   cudaError_t compute_gravity(Precision p, const GravityShape &want, const void *src, long nsrc,
                               const int *tidx, const int *slot, long ntgt, const double *m,
                               double max_mass, const GravityArgs &a, void *scratch, double *f,
                               double *e, double *v, cudaStream_t st)
   {
-    // The self pair adds exactly zero force when m / eps^3 is finite in the pair arithmetic.
-    const double eps3 = a.eps2 * std::sqrt(a.eps2);
-    const double limit = (p == Precision::Double) ? 1e300 : 1e30;
-    const bool self_safe = !a.energy_virial && a.eps2 > 1e-30 && max_mass < limit * eps3;
-    const bool self_test = !self_safe;
     if (ntgt <= 0) return cudaSuccess;
     const GravityShape s = compiled_shape(p, want, a);
-    cudaError_t err;
-    if (p == Precision::Single)
-      err = dispatch_flags<0>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
-    else if (p == Precision::Mixed)
-      err = dispatch_flags<1>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
-    else
-      err = dispatch_flags<2>(s, src, nsrc, tidx, ntgt, a, self_test, scratch, st);
+    const cudaError_t err =
+        compute_partials(p, s, src, SourceRange{0, nsrc, 0, s.splits}, tidx, ntgt, a,
+                         needs_self_test(p, a, max_mass), scratch, st);
     if (err != cudaSuccess) return err;
     return sum_partials(p, scratch, s.splits, ntgt, ntgt, tidx, slot, m, a.G, a.energy_virial, f, e,
                         v, st);

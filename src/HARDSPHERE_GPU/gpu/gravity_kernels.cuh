@@ -60,6 +60,31 @@ namespace GPU {
                            unsigned *keys, int *tsorted, int *slot, void *temp, size_t temp_bytes,
                            cudaStream_t st);
 
+  /// Sources [begin, end) of the packed array whose partial sums fill splits
+  /// [split0, split0 + shape.splits) of a scratch laid out for nsplits splits
+  /// (compute_partials); several ranges cover the sources when their sums are started at
+  /// different times (the all-pairs gather of several MPI ranks overlapped with the kernels).
+  struct SourceRange {
+    long begin, end;
+    int split0, nsplits;
+  };
+
+  /// Whether the kernels must test for each target's own index (the self pair is not exactly
+  /// zero: energy or virial wanted, no softening, or masses up to max_mass overflow m/eps^3).
+  bool needs_self_test(Precision p, const GravityArgs &a, double max_mass);
+
+  /// The (block, ilp) the kernels run for a wanted shape and these flags (splits kept).
+  GravityShape run_shape(Precision p, const GravityShape &want, const GravityArgs &a);
+
+  /// Partial sums of the sources in r for ntgt targets (tidx: their source indices, which
+  /// index src for the targets' own positions too), s.splits block rows over r; no finalize:
+  /// sum_partials adds the nsplits splits afterwards.  scratch: scratch_bytes(p, s', ntgt, ev)
+  /// for a shape s' of nsplits splits.
+  cudaError_t compute_partials(Precision p, const GravityShape &s, const void *src,
+                               const SourceRange &r, const int *tidx, long ntgt,
+                               const GravityArgs &a, bool self_test, void *scratch,
+                               cudaStream_t st);
+
   /// All-pairs sum for ntgt targets over nsrc sources, leaving out each target's own index.
   /// tidx: source index of each target; slot: where each target's results go (nullptr: in
   /// order).  f: 3*ntgt doubles; e: ntgt, v: 6*ntgt doubles (only with a.energy_virial).

@@ -12,18 +12,32 @@ namespace GPU {
     int device = 0;
     cudaStream_t stream = nullptr;
     std::vector<char> handles;    // of the buffers open now
-    double *buf[3] = {nullptr, nullptr, nullptr};
+    // x, v, f, tlast, radius, rmass, type, id: ResidentStep::share_inputs()'s order.
+    static constexpr int NBUF = 8;
+    void *buf[NBUF] = {};
     HostRangeLock locked[3];    // the host arrays of put()
     bool locking = true;        // false once the driver refused: pageable copies from then on
 
+    std::vector<char> rhandles;    // of the result buffers open now
+    void *rbuf[2] = {};
+
     void close()
     {
-      for (double *&b : buf) {
+      for (void *&b : buf) {
         if (b) cudaIpcCloseMemHandle(b);
         b = nullptr;
       }
       (void) cudaGetLastError();
       handles.clear();
+    }
+    void close_results()
+    {
+      for (void *&b : rbuf) {
+        if (b) cudaIpcCloseMemHandle(b);
+        b = nullptr;
+      }
+      (void) cudaGetLastError();
+      rhandles.clear();
     }
   };
 
@@ -44,6 +58,7 @@ namespace GPU {
   {
     cudaSetDevice(impl->device);
     impl->close();
+    impl->close_results();
     for (HostRangeLock &l : impl->locked) l.release();
     if (impl->stream) cudaStreamDestroy(impl->stream);
     (void) cudaGetLastError();
@@ -52,29 +67,69 @@ namespace GPU {
 
   void PeerInputs::open(const std::vector<char> &handles)
   {
-    if (handles.size() != 3 * sizeof(cudaIpcMemHandle_t))
-      throw Error("PeerInputs: not three CUDA IPC handles");
+    constexpr int NBUF = Impl::NBUF;
+    if (handles.size() != NBUF * sizeof(cudaIpcMemHandle_t))
+      throw Error("PeerInputs: not eight CUDA IPC handles");
     if (handles == impl->handles) return;
     cuda_check(cudaSetDevice(impl->device), "cudaSetDevice");
     impl->close();
-    cudaIpcMemHandle_t h[3];
+    cudaIpcMemHandle_t h[NBUF];
     std::memcpy(h, handles.data(), sizeof(h));
-    for (int k = 0; k < 3; ++k) {
+    for (int k = 0; k < NBUF; ++k) {
       void *p = nullptr;
       cuda_check(cudaIpcOpenMemHandle(&p, h[k], cudaIpcMemLazyEnablePeerAccess),
                  "cudaIpcOpenMemHandle");
-      impl->buf[k] = static_cast<double *>(p);
+      impl->buf[k] = p;
     }
     impl->handles = handles;
   }
 
-  void PeerInputs::put(long first, long count, const double *x, const double *v, const double *f)
+  void PeerInputs::put(long first, long count, const double *x, const double *v, const double *f,
+                       long room)
   {
     if (count <= 0) return;
     if (!impl->buf[0]) throw Error("PeerInputs: no buffers open");
     cuda_check(cudaSetDevice(impl->device), "cudaSetDevice");
-    copy_xvf_to_device(impl->buf, first, count, x, v, f, impl->locked, impl->locking, impl->stream,
-                       "cudaMemcpy(atoms to the gathering device)");
+    double *const dst[3] = {static_cast<double *>(impl->buf[0]), static_cast<double *>(impl->buf[1]),
+                            static_cast<double *>(impl->buf[2])};
+    copy_xvf_to_device(dst, first, count, x, v, f, impl->locked, impl->locking, impl->stream,
+                       "cudaMemcpy(atoms to the gathering device)", room);
+  }
+
+  void PeerInputs::open_results(const std::vector<char> &handles)
+  {
+    if (handles.size() != 2 * sizeof(cudaIpcMemHandle_t))
+      throw Error("PeerInputs: not two CUDA IPC handles of results");
+    if (handles == impl->rhandles) return;
+    cuda_check(cudaSetDevice(impl->device), "cudaSetDevice");
+    impl->close_results();
+    cudaIpcMemHandle_t h[2];
+    std::memcpy(h, handles.data(), sizeof(h));
+    for (int k = 0; k < 2; ++k)
+      cuda_check(cudaIpcOpenMemHandle(&impl->rbuf[k], h[k], cudaIpcMemLazyEnablePeerAccess),
+                 "cudaIpcOpenMemHandle(results)");
+    impl->rhandles = handles;
+  }
+
+  void PeerInputs::get_result(int k, size_t offset, size_t bytes, void *out)
+  {
+    if (bytes == 0) return;
+    if (k < 0 || k > 1 || !impl->rbuf[k]) throw Error("PeerInputs: no result buffers open");
+    cuda_check(cudaSetDevice(impl->device), "cudaSetDevice");
+    cuda_check(cudaMemcpyAsync(out, static_cast<const char *>(impl->rbuf[k]) + offset, bytes,
+                               cudaMemcpyDefault, impl->stream),
+               "cudaMemcpy(results from the gathering device)");
+    cuda_check(cudaStreamSynchronize(impl->stream), "cudaMemcpy(results from the gathering device)");
+  }
+
+  void PeerInputs::put_statics(long first, long count, const double *tlast, const double *radius,
+                               const double *rmass, const int *type, const void *id, int id_bytes)
+  {
+    if (count <= 0) return;
+    if (!impl->buf[3]) throw Error("PeerInputs: no buffers open");
+    cuda_check(cudaSetDevice(impl->device), "cudaSetDevice");
+    copy_statics_to_device(impl->buf + 3, first, count, tlast, radius, rmass, type, id, id_bytes,
+                           impl->stream, "cudaMemcpy(atoms to the gathering device)");
   }
 
   void PeerInputs::forget_host_arrays()

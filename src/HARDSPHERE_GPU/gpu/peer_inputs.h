@@ -10,6 +10,7 @@
 #ifndef HSGPU_GPU_PEER_INPUTS_H
 #define HSGPU_GPU_PEER_INPUTS_H
 
+#include <cstddef>
 #include <vector>
 
 namespace HSGPU {
@@ -23,13 +24,26 @@ namespace GPU {
     PeerInputs(const PeerInputs &) = delete;
     PeerInputs &operator=(const PeerInputs &) = delete;
 
-    /// Opens the three buffers of `handles` (ResidentStep::share_inputs()'s bytes) unless they
-    /// are the ones open now; throws where the driver refuses.
+    /// Opens the buffers of `handles` (ResidentStep::share_inputs()'s bytes) unless they are
+    /// the ones open now; throws where the driver refuses.
     void open(const std::vector<char> &handles);
     /// Copies count atoms' x, v and f (3 doubles each) into atoms [first, first + count) of the
     /// open buffers and waits.  The host arrays are page-locked in place and kept so until
     /// forget_host_arrays() or they move.
-    void put(long first, long count, const double *x, const double *v, const double *f);
+    /// room: atoms the arrays x, v, f hold (at least count), page-locked once.
+    void put(long first, long count, const double *x, const double *v, const double *f,
+             long room);
+    /// Copies count atoms' times of last collision, radii, masses, types and IDs (id_bytes
+    /// each) into atoms [first, first + count) of the open buffers and waits (pageable copies:
+    /// these move only after atoms moved in a rank's arrays).
+    void put_statics(long first, long count, const double *tlast, const double *radius,
+                     const double *rmass, const int *type, const void *id, int id_bytes);
+    /// Opens the buffers of `handles` (ResidentStep::share_results()'s bytes: the results of
+    /// the gathering device's step, then every atom's tlast) unless they are open now.
+    void open_results(const std::vector<char> &handles);
+    /// Copies `bytes` bytes from byte `offset` of open result buffer k (0: the results, 1:
+    /// tlast) into host memory `out`, and waits.
+    void get_result(int k, size_t offset, size_t bytes, void *out);
     /// The host arrays given to put() may move or be freed.
     void forget_host_arrays();
 

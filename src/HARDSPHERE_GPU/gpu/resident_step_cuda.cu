@@ -96,6 +96,7 @@ namespace Collide {
     using GPU::PinnedBuffer;
     using GPU::copy_xvf_to_device;
     using GPU::HostRangeLock;
+    using GPU::copy_statics_to_device;
 
     constexpr int BLOCK = 256;
     constexpr int GROUP_BLOCK = 128;
@@ -1071,15 +1072,26 @@ namespace Collide {
       size_t kept_bytes[NLOCKED] = {};
 
      public:
-      bool share_inputs(long count, std::vector<char> &handles) override
+      bool share_inputs(long count, int id_bytes, std::vector<char> &handles) override
       {
         handles.clear();
         cuda_check(cudaSetDevice(device), "cudaSetDevice");
-        DeviceBuffer *b[3] = {&d_ax, &d_av, &d_af};
-        cudaIpcMemHandle_t h[3];
-        for (int k = 0; k < 3; ++k) {
-          b[k]->reserve((size_t) 3 * count * sizeof(double) + 8, "cudaMalloc(atoms)");
-          if (cudaIpcGetMemHandle(&h[k], b[k]->ptr) != cudaSuccess) {
+        // The sizes run_atoms() reserves (its up()): no buffer moves between the two.
+        const size_t n3 = (size_t) 3 * count * sizeof(double) + 8,
+                     n1 = (size_t) count * sizeof(double) + 8;
+        const struct {
+          DeviceBuffer *b;
+          size_t bytes;
+        } bufs[NLOCKED] = {{&d_ax, n3},     {&d_av, n3},     {&d_af, n3},
+                           {&d_atlast, n1}, {&d_arad, n1},   {&d_amass, n1},
+                           {&d_atype, (size_t) count * sizeof(int) + 8},
+                           {&d_aid, (size_t) count * id_bytes + 8}};
+        cudaIpcMemHandle_t h[NLOCKED];
+        for (int k = 0; k < NLOCKED; ++k) {
+          const void *was = bufs[k].b->ptr;
+          bufs[k].b->reserve(bufs[k].bytes, "cudaMalloc(atoms)");
+          if (bufs[k].b->ptr != was) kept = false;    // the device copies are gone
+          if (cudaIpcGetMemHandle(&h[k], bufs[k].b->ptr) != cudaSuccess) {
             (void) cudaGetLastError();
             return false;
           }
@@ -1089,13 +1101,40 @@ namespace Collide {
       }
 
       void put_inputs(long first, long count, const double *x, const double *v,
-                      const double *f) override
+                      const double *f, long room) override
       {
         if (count <= 0) return;
         cuda_check(cudaSetDevice(device), "cudaSetDevice");
         double *const dst[3] = {d_ax.as<double>(), d_av.as<double>(), d_af.as<double>()};
         // This rank's own arrays, page-locked in place in run_atoms()'s x, v, f slots.
-        copy_xvf_to_device(dst, first, count, x, v, f, locked, locking, stream, "cudaMemcpy(atoms)");
+        copy_xvf_to_device(dst, first, count, x, v, f, locked, locking, stream, "cudaMemcpy(atoms)",
+                           room);
+      }
+
+      bool share_results(std::vector<char> &handles) override
+      {
+        handles.clear();
+        cuda_check(cudaSetDevice(device), "cudaSetDevice");
+        cudaIpcMemHandle_t h[2];
+        DeviceBuffer *b[2] = {&d_sums, &d_atlast};
+        for (int k = 0; k < 2; ++k)
+          if (!b[k]->ptr || cudaIpcGetMemHandle(&h[k], b[k]->ptr) != cudaSuccess) {
+            (void) cudaGetLastError();
+            return false;
+          }
+        handles.assign(reinterpret_cast<const char *>(h), reinterpret_cast<const char *>(h) + sizeof(h));
+        return true;
+      }
+
+      void put_statics(long first, long count, const double *tlast, const double *radius,
+                       const double *rmass, const int *type, const void *id,
+                       int id_bytes) override
+      {
+        if (count <= 0) return;
+        cuda_check(cudaSetDevice(device), "cudaSetDevice");
+        void *const dst[5] = {d_atlast.ptr, d_arad.ptr, d_amass.ptr, d_atype.ptr, d_aid.ptr};
+        copy_statics_to_device(dst, first, count, tlast, radius, rmass, type, id, id_bytes, stream,
+                               "cudaMemcpy(atoms)");
       }
 
       void forget_host_arrays() override
@@ -1940,6 +1979,7 @@ namespace Collide {
       cuda_check(cudaEventRecord(ev_up0, stream), "cudaEventRecord");
       for (int k = 0; k < NLOCKED; ++k) {
         if (a.inputs_shared && k < FIRST_KEPT) continue;    // x, v, f: in place already
+        if (a.statics_shared && k >= FIRST_KEPT) continue;  // the rest: in place already
         locked[k].keep(arrays[k].h, arrays[k].bytes, locking);
         if (locked[k].p) ++prof.locked;
         if (keep && k >= FIRST_KEPT) continue;
