@@ -21,24 +21,18 @@ namespace GPU {
     std::vector<char> rhandles;    // of the result buffers open now
     void *rbuf[2] = {};
 
-    void close()
+    // Closes the opened buffers b[0 .. n) and forgets their handles h.
+    static void close_buffers(void **b, int n, std::vector<char> &h)
     {
-      for (void *&b : buf) {
-        if (b) cudaIpcCloseMemHandle(b);
-        b = nullptr;
+      for (int k = 0; k < n; ++k) {
+        if (b[k]) cudaIpcCloseMemHandle(b[k]);
+        b[k] = nullptr;
       }
       (void) cudaGetLastError();
-      handles.clear();
+      h.clear();
     }
-    void close_results()
-    {
-      for (void *&b : rbuf) {
-        if (b) cudaIpcCloseMemHandle(b);
-        b = nullptr;
-      }
-      (void) cudaGetLastError();
-      rhandles.clear();
-    }
+    void close() { close_buffers(buf, NBUF, handles); }
+    void close_results() { close_buffers(rbuf, 2, rhandles); }
   };
 
   PeerInputs::PeerInputs(int device) : impl(new Impl())
