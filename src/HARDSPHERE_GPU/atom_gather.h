@@ -36,6 +36,16 @@ class AtomGather : protected Pointers {
   const double *own_x() const { return own_xp; }       // 3 per owned atom, wrapped
   const double *own_mass() const { return own_mp; }    // 1 per owned atom
   bool masses_travel() const { return any_changed != 0; }    // this gather changes masses
+  // After prepare(): where each rank's atoms start in the rank-ordered arrays, and how many.
+  void rank_ranges(std::vector<long> &first, std::vector<long> &count) const
+  {
+    first.resize(counts.size());
+    count.resize(counts.size());
+    for (size_t p = 0; p < counts.size(); ++p) {
+      first[p] = displs[p] / npack;
+      count[p] = counts[p] / npack;
+    }
+  }
 
   bool id_order = true;    // order x and mass by atom ID (else by rank, as received)
 

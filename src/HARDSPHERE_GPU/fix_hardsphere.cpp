@@ -671,20 +671,6 @@ double FixHardSphere::inserted_radius()
   return r;
 }
 
-/* Whether all ranks share one node's memory (MPI's shared-memory split): the gathered step's
-   copies straight to rank 0's device are tried only then. */
-bool FixHardSphere::one_node()
-{
-  MPI_Comm node;
-  MPI_Comm_split_type(world, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
-  int size = 0;
-  MPI_Comm_size(node, &size);
-  MPI_Comm_free(&node);
-  int all = 0, mine = size == comm->nprocs ? 1 : 0;
-  MPI_Allreduce(&mine, &all, 1, MPI_INT, MPI_MIN, world);
-  return all == 1;
-}
-
 /* The collision backend: CUDA on this rank's device with 'gpu yes' (the device policy of
    gpu_device_choice.h, shared with pair gravity: where any rank has no usable device all ranks
    run the CPU backend and rank 0 warns), else the CPU one. */
@@ -720,7 +706,7 @@ void FixHardSphere::setup_backend()
       }
       // The other ranks copy their atoms to rank 0's device where they can (CUDA IPC on one
       // node; else, decided at the first step, through MPI).
-      gath.ipc = gather_step && !std::getenv("HSGPU_GATHER_MPI") && one_node();
+      gath.ipc = gather_step && !std::getenv("HSGPU_GATHER_MPI") && hsgpu_one_node(world);
       if (gath.ipc && comm->me != 0 && device >= 0) {
         try {
           peer.reset(new HSGPU::GPU::PeerInputs(device));

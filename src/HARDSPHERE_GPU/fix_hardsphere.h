@@ -326,7 +326,6 @@ class FixHardSphere : public Fix {
   void prepare(double drift_dt);
   int overlap_pass(double drift_dt, int pass, double &moved);
   void setup_backend();
-  bool one_node();
   bool step_exact();
   void view_completeness();
   void classify();

@@ -43,3 +43,16 @@ int LAMMPS_NS::hsgpu_choose_device(LAMMPS *lmp, MPI_Comm world, int requested, c
                     device, ndev);
   return device;
 }
+
+bool LAMMPS_NS::hsgpu_one_node(MPI_Comm world)
+{
+  MPI_Comm node;
+  MPI_Comm_split_type(world, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
+  int size = 0, nprocs = 0;
+  MPI_Comm_size(node, &size);
+  MPI_Comm_size(world, &nprocs);
+  MPI_Comm_free(&node);
+  int all = 0, mine = size == nprocs ? 1 : 0;
+  MPI_Allreduce(&mine, &all, 1, MPI_INT, MPI_MIN, world);
+  return all == 1;
+}

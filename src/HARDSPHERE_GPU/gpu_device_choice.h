@@ -20,6 +20,10 @@ class LAMMPS;
 /// messages, e.g. "Pair gravity".  Collective over `world`.
 int hsgpu_choose_device(LAMMPS *lmp, MPI_Comm world, int requested, const char *style);
 
+/// Whether all ranks of `world` share one node's memory (MPI's shared-memory split), where
+/// processes can open each other's device buffers (CUDA IPC).  Collective over `world`.
+bool hsgpu_one_node(MPI_Comm world);
+
 }    // namespace LAMMPS_NS
 
 #endif

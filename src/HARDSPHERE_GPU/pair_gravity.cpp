@@ -36,7 +36,7 @@ PairGravity::PairGravity(LAMMPS *lmp) :
     Pair(lmp), gravity_g(0.0), softening_eps(0.0), cutoff(0.0), gather(nullptr), gpu_requested(0),
     precision((int) HSGPU::GPU::Precision::Mixed), device_request(-1), engine(nullptr),
     t_gather(0.0), t_upload(0.0), t_kernel(0.0), t_total(0.0), ncalls(0), ncalls_once(0),
-    ncalls_overlap(0),
+    ncalls_overlap(0), ncalls_peer(0), peer_sources(false),
     timing(false), timing_all(false)
 {
   single_enable = 0;
@@ -56,16 +56,17 @@ PairGravity::~PairGravity()
   if (timing && timing_all && ncalls > 0)
     printf("Pair gravity timing on rank %d over %ld calls (s/call): total %.4g, gather %.4g, "
            "device transfers+launch %.4g, kernels %.4g; pairs once in %ld calls; gather "
-           "overlapped with the kernels in %ld calls\n",
+           "overlapped with the kernels in %ld calls, from the other ranks' devices in %ld\n",
            comm->me, ncalls, t_total / ncalls, t_gather / ncalls, t_upload / ncalls,
-           t_kernel / ncalls, ncalls_once, ncalls_overlap);
+           t_kernel / ncalls, ncalls_once, ncalls_overlap, ncalls_peer);
   else if (timing && comm->me == 0 && ncalls > 0)
     utils::logmesg(lmp,
                    "Pair gravity timing on rank 0 over {} calls (s/call): total {:.4g}, gather "
                    "{:.4g}, device transfers+launch {:.4g}, kernels {:.4g}; pairs once in {} "
-                   "calls; gather overlapped with the kernels in {} calls\n",
+                   "calls; gather overlapped with the kernels in {} calls, from the other ranks' "
+                   "devices in {}\n",
                    ncalls, t_total / ncalls, t_gather / ncalls, t_upload / ncalls,
-                   t_kernel / ncalls, ncalls_once, ncalls_overlap);
+                   t_kernel / ncalls, ncalls_once, ncalls_overlap, ncalls_peer);
   delete gather;
   delete engine;
   if (allocated) {
@@ -268,6 +269,15 @@ void PairGravity::setup_gpu()
       error->one(FLERR, "Pair gravity: cannot use CUDA device {}: {}", device, e.what());
     }
   }
+  // Several ranks of one node read each other's positions from their devices (CUDA IPC)
+  // instead of gathering them on every host; HSGPU_GATHER_MPI=1 keeps the host's gather.
+  peer_sources =
+      comm->nprocs > 1 && !std::getenv("HSGPU_GATHER_MPI") && hsgpu_one_node(world);
+  if (comm->me == 0 && comm->nprocs > 1)
+    utils::logmesg(lmp, "Pair gravity: {}\n",
+                   peer_sources ? "each rank copies the other ranks' positions from their "
+                                  "devices (one node, CUDA IPC)"
+                                : "the positions of all ranks are gathered through MPI");
   if (comm->me == 0) {
     static const char *names[] = {"single", "mixed", "double"};
     utils::logmesg(lmp, "Pair gravity: CUDA path, precision {}, rank 0 on device {} ({})\n",
@@ -423,15 +433,20 @@ void PairGravity::compute_gpu_overlapped(int nlocal, double &t_gathered)
     error->one(FLERR, "Pair gravity on CUDA device {}: {}", engine->device(), e.what());
   }
   const double t2 = MPI_Wtime();
-  gather->exchange();
+  const bool peers = peer_sources && sources_from_peers(nlocal);
+  if (!peers) gather->exchange();
   const double t3 = MPI_Wtime();
   try {
-    engine->finish_rest(gather->x.data(), gather->mass.data(), gpu_f.data(), gpu_e.data(),
-                        gpu_v.data());
+    if (peers)
+      engine->finish_from_peers(rank_first, rank_count, gpu_f.data(), gpu_e.data(), gpu_v.data());
+    else
+      engine->finish_rest(gather->x.data(), gather->mass.data(), gpu_f.data(), gpu_e.data(),
+                          gpu_v.data());
   } catch (std::exception &e) {
     error->one(FLERR, "Pair gravity on CUDA device {}: {}", engine->device(), e.what());
   }
   const double t4 = MPI_Wtime();
+  if (timing && peers) ++ncalls_peer;
   t_gathered = (t1 - t0) + (t3 - t2);
   if (timing) {
     ++ncalls_overlap;
@@ -440,6 +455,50 @@ void PairGravity::compute_gpu_overlapped(int nlocal, double &t_gathered)
     t_upload += std::max(0.0, t4 - t1 - k);
   }
   add_gpu_results(nlocal, a.energy_virial);
+}
+
+/* Ranks of one node: instead of the host's gather, every rank's device buffers of positions
+   and masses are opened by the others (CUDA IPC), which copy the other ranks' atoms from
+   there (GravityEngine::finish_from_peers()).  Collective; false on every rank where some rank
+   could not (the host's gather then takes over for the rest of the run, with a log line). */
+bool PairGravity::sources_from_peers(int nlocal)
+{
+  (void) nlocal;
+  int ok = 1;
+  try {
+    ok = engine->share_sources(peer_mine) ? 1 : 0;
+  } catch (std::exception &) {
+    ok = 0;
+  }
+  int all = 0;
+  MPI_Allreduce(&ok, &all, 1, MPI_INT, MPI_MIN, world);
+  std::string why = "a device would not share its buffers";
+  if (all) {
+    // Every rank's own positions are on its device now (share_sources() waited for them).
+    peer_all.resize(peer_mine.size() * comm->nprocs);
+    MPI_Allgather(peer_mine.data(), (int) peer_mine.size(), MPI_CHAR, peer_all.data(),
+                  (int) peer_mine.size(), MPI_CHAR, world);
+    try {
+      engine->open_peers(peer_all, comm->me);
+    } catch (std::exception &e) {
+      ok = 0;
+      why = e.what();
+    }
+    MPI_Allreduce(&ok, &all, 1, MPI_INT, MPI_MIN, world);
+  }
+  if (all) {
+    gather->rank_ranges(rank_first, rank_count);
+    return true;
+  }
+  peer_sources = false;
+  int who = ok ? comm->nprocs : comm->me, first_bad = 0;
+  MPI_Allreduce(&who, &first_bad, 1, MPI_INT, MPI_MIN, world);
+  if (comm->me == first_bad)
+    utils::logmesg(lmp,
+                   "Pair gravity: rank {} cannot read the other ranks' positions from their "
+                   "devices ({}); they are gathered through MPI for the rest of the run\n",
+                   comm->me, why);
+  return false;
 }
 
 /* Collective: stops with an error that names the problem where the forces cannot be right.

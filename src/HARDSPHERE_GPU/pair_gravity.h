@@ -61,6 +61,10 @@ class PairGravity : public Pair {
   double t_gather, t_upload, t_kernel, t_total;
   long ncalls, ncalls_once;    // calls, and calls that evaluated each pair once
   long ncalls_overlap;         // calls with the gather overlapped with the kernels
+  long ncalls_peer;            // calls with the positions copied from the other ranks' devices
+  bool peer_sources;           // several ranks of one node: no host gather (CUDA IPC)
+  std::vector<char> peer_mine, peer_all;    // handles of this and of every rank's buffers
+  std::vector<long> rank_first, rank_count;
   bool timing, timing_all;
 
   struct TargetSums {
@@ -73,6 +77,7 @@ class PairGravity : public Pair {
   void compute_cpu(int nlocal);
   void compute_gpu(int nlocal);
   void compute_gpu_overlapped(int nlocal, double &t_gathered);
+  bool sources_from_peers(int nlocal);
   void gpu_args(int nlocal, HSGPU::GPU::GravityArgs &a);
   void add_gpu_results(int nlocal, bool energy_virial);
   void setup_gpu();

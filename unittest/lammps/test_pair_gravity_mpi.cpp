@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <mpi.h>
 
 using hsgpu_test::GravitySystem;
@@ -94,7 +95,9 @@ TEST(PairGravityMPI, ClusteredOpenBoxAgreesWithSingleRank)
   compare_world_with_single_rank(s);
 }
 
-// Atoms migrate between ranks during the 40 steps, so the rank-order source list is rebuilt.
+// Atoms migrate between ranks during the 40 steps, so the rank-order source list is rebuilt
+// (and masses travel again).  On one node each rank copies the others' positions and masses
+// from their devices (CUDA IPC); again with HSGPU_GATHER_MPI=1, through the host's gather.
 TEST(PairGravityMPI, GpuPathOnAllRanksAgreesWithCpuOnOne)
 {
   int skip = HSGPU::GPU::device_count() == 0 ? 1 : 0, any = 0;
@@ -103,6 +106,9 @@ TEST(PairGravityMPI, GpuPathOnAllRanksAgreesWithCpuOnOne)
   GravitySystem s;
   s.n = 300;
   compare_world_with_single_rank(s, s.pair + " gpu yes precision double", 1e-10);
+  setenv("HSGPU_GATHER_MPI", "1", 1);
+  compare_world_with_single_rank(s, s.pair + " gpu yes precision double", 1e-10);
+  unsetenv("HSGPU_GATHER_MPI");
 }
 
 // Two atoms at one point without softening, owned by whichever rank: every rank stops with the

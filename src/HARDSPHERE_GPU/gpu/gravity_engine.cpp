@@ -8,6 +8,7 @@
 #include <cuda_runtime.h>
 
 #include <algorithm>
+#include <limits>
 #include <cstring>
 #include <vector>
 
@@ -56,9 +57,27 @@ namespace GPU {
       const int *targets = nullptr, *slot = nullptr;
     } split;
     double own_max_mass = 0.0;
+    cudaEvent_t own_up = nullptr;    // the own sources are on the device (share_sources())
+    // The other ranks' positions and masses, opened by CUDA IPC (open_peers()), per rank.
+    std::vector<std::vector<char>> peer_handles;
+    std::vector<void *> peer_x, peer_m;
+    int peer_me = -1;    // this rank among them
+    void close_peers();
     void upload_range(DeviceBuffer &b, const double *h, long begin, long end, int per,
                       cudaStream_t st, const char *what);
   };
+
+  void GravityEngine::Impl::close_peers()
+  {
+    for (void *&p : peer_x)
+      if (p) cudaIpcCloseMemHandle(p);
+    for (void *&p : peer_m)
+      if (p) cudaIpcCloseMemHandle(p);
+    (void) cudaGetLastError();
+    peer_x.clear();
+    peer_m.clear();
+    peer_handles.clear();
+  }
 
   void GravityEngine::Impl::upload_range(DeviceBuffer &b, const double *h, long begin, long end,
                                          int per, cudaStream_t st, const char *what)
@@ -117,6 +136,8 @@ namespace GPU {
          {&impl->x, &impl->m, &impl->src, &impl->tidx, &impl->scratch, &impl->f, &impl->e, &impl->v,
           &impl->keys, &impl->tsorted, &impl->slot, &impl->sort_temp})
       b->release();
+    impl->close_peers();
+    if (impl->own_up) cudaEventDestroy(impl->own_up);
     if (impl->copied) cudaEventDestroy(impl->copied);
     if (impl->copy_stream) cudaStreamDestroy(impl->copy_stream);
     if (impl->start) cudaEventDestroy(impl->start);
@@ -259,6 +280,7 @@ namespace GPU {
       cuda_check(cudaStreamCreateWithFlags(&I.copy_stream, cudaStreamNonBlocking),
                  "cudaStreamCreate");
       cuda_check(cudaEventCreateWithFlags(&I.copied, cudaEventDisableTiming), "cudaEventCreate");
+      cuda_check(cudaEventCreateWithFlags(&I.own_up, cudaEventDisableTiming), "cudaEventCreate");
     }
     const bool masses = masses_changed || n != I.nsrc;
     I.nsrc = n;
@@ -296,6 +318,7 @@ namespace GPU {
       I.own_max_mass = 0.0;
       for (long i = 0; i < n_own; ++i) I.own_max_mass = std::max(I.own_max_mass, m_own[i]);
     }
+    cuda_check(cudaEventRecord(I.own_up, I.stream), "cudaEventRecord");
     const size_t sb = source_bytes(p);
     cuda_check(pack_sources(p, (const double *) I.x.ptr + 3 * first,
                             (const double *) I.m.ptr + first, n_own, a,
@@ -324,7 +347,7 @@ namespace GPU {
     Impl::Split &S = I.split;
     if (!S.open) throw Error("gravity engine: finish_rest() without begin_own()");
     S.open = false;
-    const long n = I.nsrc, nt = I.ntgt, hi = S.first + S.n_own;
+    const long n = I.nsrc, hi = S.first + S.n_own;
     // The other sources go up on their own stream while the own sums run.
     I.upload_range(I.x, x, 0, S.first, 3, I.copy_stream, "cudaMemcpy(positions)");
     I.upload_range(I.x, x, hi, n, 3, I.copy_stream, "cudaMemcpy(positions)");
@@ -336,6 +359,95 @@ namespace GPU {
       for (long i = 0; i < S.first; ++i) I.max_mass = std::max(I.max_mass, m[i]);
       for (long i = hi; i < n; ++i) I.max_mass = std::max(I.max_mass, m[i]);
     }
+    sum_rest(f, e, v);
+  }
+
+  bool GravityEngine::share_sources(std::vector<char> &handles)
+  {
+    handles.clear();
+    cuda_check(cudaSetDevice(impl->device), "cudaSetDevice");
+    Impl &I = *impl;
+    if (!I.split.open || !I.x.ptr || !I.m.ptr) return false;
+    cuda_check(cudaEventSynchronize(I.own_up), "gravity engine (own sources up)");
+    cudaIpcMemHandle_t h[2];
+    if (cudaIpcGetMemHandle(&h[0], I.x.ptr) != cudaSuccess ||
+        cudaIpcGetMemHandle(&h[1], I.m.ptr) != cudaSuccess) {
+      (void) cudaGetLastError();
+      return false;
+    }
+    handles.assign(reinterpret_cast<const char *>(h), reinterpret_cast<const char *>(h) + sizeof(h));
+    return true;
+  }
+
+  void GravityEngine::open_peers(const std::vector<char> &all, int me)
+  {
+    cuda_check(cudaSetDevice(impl->device), "cudaSetDevice");
+    Impl &I = *impl;
+    const size_t per = 2 * sizeof(cudaIpcMemHandle_t);
+    if (all.size() % per != 0 || me < 0 || (size_t) me >= all.size() / per)
+      throw Error("gravity engine: not two CUDA IPC handles per rank");
+    const size_t np = all.size() / per;
+    I.peer_me = me;
+    if (I.peer_handles.size() != np) {
+      I.close_peers();
+      I.peer_handles.resize(np);
+      I.peer_x.assign(np, nullptr);
+      I.peer_m.assign(np, nullptr);
+    }
+    for (size_t q = 0; q < np; ++q) {
+      if ((int) q == me) continue;
+      std::vector<char> h(all.begin() + q * per, all.begin() + (q + 1) * per);
+      if (h == I.peer_handles[q]) continue;
+      for (void **p : {&I.peer_x[q], &I.peer_m[q]}) {
+        if (*p) cudaIpcCloseMemHandle(*p);
+        *p = nullptr;
+      }
+      I.peer_handles[q].clear();
+      cudaIpcMemHandle_t hh[2];
+      std::memcpy(hh, h.data(), sizeof(hh));
+      cuda_check(cudaIpcOpenMemHandle(&I.peer_x[q], hh[0], cudaIpcMemLazyEnablePeerAccess),
+                 "cudaIpcOpenMemHandle(positions of another rank)");
+      cuda_check(cudaIpcOpenMemHandle(&I.peer_m[q], hh[1], cudaIpcMemLazyEnablePeerAccess),
+                 "cudaIpcOpenMemHandle(masses of another rank)");
+      I.peer_handles[q] = h;
+    }
+  }
+
+  void GravityEngine::finish_from_peers(const std::vector<long> &first,
+                                        const std::vector<long> &count, double *f, double *e,
+                                        double *v)
+  {
+    cuda_check(cudaSetDevice(impl->device), "cudaSetDevice");
+    Impl &I = *impl;
+    Impl::Split &S = I.split;
+    if (!S.open) throw Error("gravity engine: finish_from_peers() without begin_own()");
+    if (first.size() != I.peer_x.size() || count.size() != first.size())
+      throw Error("gravity engine: the ranks' sources do not match the buffers opened");
+    for (size_t q = 0; q < first.size(); ++q) {
+      if ((int) q == I.peer_me || count[q] == 0) continue;    // this rank's own, or none
+      if (!I.peer_x[q]) throw Error("gravity engine: another rank's buffers are not open");
+      const size_t off3 = 3 * first[q] * sizeof(double), off1 = first[q] * sizeof(double);
+      cuda_check(cudaMemcpyAsync((char *) I.x.ptr + off3, (const char *) I.peer_x[q] + off3,
+                                 3 * count[q] * sizeof(double), cudaMemcpyDefault, I.copy_stream),
+                 "cudaMemcpy(positions from another rank's device)");
+      if (S.masses_pending)
+        cuda_check(cudaMemcpyAsync((char *) I.m.ptr + off1, (const char *) I.peer_m[q] + off1,
+                                   count[q] * sizeof(double), cudaMemcpyDefault, I.copy_stream),
+                   "cudaMemcpy(masses from another rank's device)");
+    }
+    // The other ranks' masses are not on this host: compute() tests every self pair after.
+    if (S.masses_pending) I.max_mass = std::numeric_limits<double>::infinity();
+    S.open = false;
+    sum_rest(f, e, v);
+  }
+
+  // The sums over the sources outside the own range once copy_stream has put them on the
+  // device, the finalize, and the results back.
+  void GravityEngine::sum_rest(double *f, double *e, double *v)
+  {
+    Impl &I = *impl;
+    Impl::Split &S = I.split;
+    const long n = I.nsrc, nt = I.ntgt, hi = S.first + S.n_own;
     cuda_check(cudaEventRecord(I.copied, I.copy_stream), "cudaEventRecord");
     cuda_check(cudaStreamWaitEvent(I.stream, I.copied, 0), "cudaStreamWaitEvent");
     const size_t sb = source_bytes(S.p);

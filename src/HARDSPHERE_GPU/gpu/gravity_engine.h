@@ -12,6 +12,7 @@
 #include "gravity_types.h"
 
 #include <string>
+#include <vector>
 
 namespace HSGPU {
 namespace GPU {
@@ -54,6 +55,21 @@ namespace GPU {
                    const double *x_own, const double *m_own, bool masses_changed);
     void finish_rest(const double *x, const double *m, double *f, double *e, double *v);
 
+    /// The same without the host's gather, for ranks of one node (CUDA IPC): after
+    /// begin_own(), share_sources() waits until the own sources are on the device and writes
+    /// handles to this engine's positions and masses (a fixed size, the same while they stay
+    /// where they are); false where the device refuses.  Once every rank got there,
+    /// open_peers() opens the other ranks' buffers (`all`: every rank's handles in rank order;
+    /// kept open while unchanged; throws where it cannot), and finish_from_peers() copies rank
+    /// q's sources [first[q], first[q] + count[q]) from its device (and their masses where
+    /// begin_own() was told they changed), sums over them and returns the results as
+    /// finish_rest() does.  Rank q's own sources must stay as they are until every rank has
+    /// returned from finish_from_peers().
+    bool share_sources(std::vector<char> &handles);
+    void open_peers(const std::vector<char> &all, int me);
+    void finish_from_peers(const std::vector<long> &first, const std::vector<long> &count,
+                           double *f, double *e, double *v);
+
     /// Kernel time of the last compute() in milliseconds (CUDA events); after finish_rest(),
     /// from the start of the own sums to the end, waits for the other sources included.
     float last_kernel_ms() const;
@@ -65,6 +81,7 @@ namespace GPU {
     Impl *impl;
     void launch_pairs_once(Precision p, const GravityArgs &a, int ilp);
     void fetch_results(bool energy_virial, double *f, double *e, double *v);
+    void sum_rest(double *f, double *e, double *v);
   };
 
 }    // namespace GPU

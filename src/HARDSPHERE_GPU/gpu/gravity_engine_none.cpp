@@ -40,6 +40,20 @@ namespace GPU {
   {
     throw Error("HARDSPHERE_GPU was built without CUDA");
   }
+  bool GravityEngine::share_sources(std::vector<char> &handles)
+  {
+    handles.clear();
+    return false;
+  }
+  void GravityEngine::open_peers(const std::vector<char> &, int)
+  {
+    throw Error("HARDSPHERE_GPU was built without CUDA");
+  }
+  void GravityEngine::finish_from_peers(const std::vector<long> &, const std::vector<long> &,
+                                        double *, double *, double *)
+  {
+    throw Error("HARDSPHERE_GPU was built without CUDA");
+  }
   float GravityEngine::last_kernel_ms() const
   {
     return 0.0f;
