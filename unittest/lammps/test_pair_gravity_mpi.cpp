@@ -12,7 +12,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
 #include <mpi.h>
 
 using hsgpu_test::GravitySystem;
@@ -25,9 +29,11 @@ struct Snapshot {
   double pe = 0, press = 0;
 };
 
-Snapshot run_on(MPI_Comm comm, const GravitySystem &s)
+// logfile: where LAMMPS writes its log (none: no file).
+Snapshot run_on(MPI_Comm comm, const GravitySystem &s, const std::string &logfile = "")
 {
   Lammps lmp(comm);
+  if (!logfile.empty()) lmp.commands({"log " + logfile});
   lmp.commands(hsgpu_test::gravity_system_lines(s));
   lmp.commands({"velocity all create 0.3 4928459 loop geom", "fix integrate all nve",
                 "timestep 0.002", "thermo_style custom step pe press", "thermo_modify norm no",
@@ -49,15 +55,25 @@ double max_rel_diff(const std::vector<double> &a, const std::vector<double> &b)
   return scale > 0 ? worst / scale : worst;
 }
 
+// The text of a file ("" where there is none).
+std::string file_text(const std::string &path)
+{
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// logfile: where the run on all ranks writes its LAMMPS log.
 void compare_world_with_single_rank(const GravitySystem &s, const std::string &world_pair = "",
-                                    double tol = 1e-12)
+                                    double tol = 1e-12, const std::string &logfile = "")
 {
   int me = 0, np = 1;
   MPI_Comm_rank(MPI_COMM_WORLD, &me);
   MPI_Comm_size(MPI_COMM_WORLD, &np);
   GravitySystem sw = s;
   if (!world_pair.empty()) sw.pair = world_pair;
-  const Snapshot world = run_on(MPI_COMM_WORLD, sw);
+  const Snapshot world = run_on(MPI_COMM_WORLD, sw, logfile);
   if (me == 0) {
     const Snapshot single = run_on(MPI_COMM_SELF, s);
     ASSERT_EQ(world.f.size(), single.f.size());
@@ -105,10 +121,24 @@ TEST(PairGravityMPI, GpuPathOnAllRanksAgreesWithCpuOnOne)
   if (any) GTEST_SKIP() << "no CUDA device on some rank";
   GravitySystem s;
   s.n = 300;
-  compare_world_with_single_rank(s, s.pair + " gpu yes precision double", 1e-10);
+  int me = 0, np = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  const std::string log = "pair_gravity_mpi_gpu.log";
+  compare_world_with_single_rank(s, s.pair + " gpu yes precision double", 1e-10, log);
+  // On one node (these tests' mpirun) the copies between devices ran, and nothing fell back.
+  const std::string peers = file_text(log);
   setenv("HSGPU_GATHER_MPI", "1", 1);
-  compare_world_with_single_rank(s, s.pair + " gpu yes precision double", 1e-10);
+  compare_world_with_single_rank(s, s.pair + " gpu yes precision double", 1e-10, log);
   unsetenv("HSGPU_GATHER_MPI");
+  if (me == 0 && np > 1) {
+    EXPECT_NE(peers.find("copies the other ranks' positions from their devices"),
+              std::string::npos);
+    EXPECT_EQ(peers.find("cannot read the other ranks' positions"), std::string::npos);
+    EXPECT_NE(file_text(log).find("gathered through MPI"), std::string::npos);
+    std::remove(log.c_str());
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
 }
 
 // Two atoms at one point without softening, owned by whichever rank: every rank stops with the
