@@ -262,6 +262,7 @@ class FixHardSphere : public Fix {
     std::vector<int> span;        // per rank: its first result and how many (rank 0)
     std::vector<HSGPU::Collide::ResidentResult> rres;    // this rank's results, read there
     std::vector<double> rtlast;                          // and its atoms' tlast
+    std::vector<double> rrspin;                          // and its results' spins
     bool ipc = true;              // x, v, f straight to rank 0's device (share_inputs())
     std::vector<char> handles;    // rank 0's device buffers for them
     std::string why;              // why a rank could not

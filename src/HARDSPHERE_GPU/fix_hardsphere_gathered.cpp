@@ -3,17 +3,19 @@
 
    With `gpu yes` on several MPI ranks and `gpu/gather yes` (the default), each step every rank
    sends its atoms of the group (LAMMPS's arrays with group all, else its group's atoms packed)
-   to rank 0: positions, velocities and forces straight into rank 0's device where all ranks
-   share one node (CUDA IPC, share_inputs()), else by MPI_Gatherv to rank 0's host; times of
-   last collision, radii, masses, types and IDs only where some rank's atoms moved in its
-   arrays since the last such step; angular velocities of rough spheres.  Rank 0's device runs
-   the whole step over all of them as on one rank (ResidentStep::run_atoms), and the atoms that
-   had events go back to their ranks (position, velocity, time of last collision, spin:
-   MPI_Scatterv); every rank shifts its other atoms' times of last collision to the step end
-   itself.  Event times depend only on the two atoms' states, so the result is one rank's bit
-   for bit, whatever order the atoms arrive in.  Where the device hands the step back, every
-   rank resolves it the host way from the same start (its arrays are untouched until the
-   results come).
+   to rank 0: positions, velocities, forces (and angular velocities of rough spheres) every
+   step, times of last collision, radii, masses, types and IDs only where some rank's atoms
+   moved in its arrays since the last such step.  Where all ranks share one node they copy
+   them straight into rank 0's device (CUDA IPC, share_inputs()), else MPI_Gatherv takes them
+   to rank 0's host.  Rank 0's device runs the whole step over all of them as on one rank
+   (ResidentStep::run_atoms), and the atoms that had events go back to their ranks (position,
+   velocity, spin, and every atom's time of last collision): each rank reads its own from rank
+   0's device on one node (results_shared()), else they come by MPI_Scatterv and every rank
+   shifts its other atoms' times of last collision to the step end itself (results_mpi()).
+   Event times depend only on the two atoms' states, so the result is one rank's bit for bit,
+   whatever order the atoms arrive in.  Where the device hands the step back, every rank
+   resolves it the host way from the same start (its arrays are untouched until the results
+   come).
 ------------------------------------------------------------------------------------- */
 
 #include "fix_hardsphere.h"
@@ -66,7 +68,7 @@ bool FixHardSphere::share_inputs(long n, int nlocal, const Source &src, bool sta
   int hbytes = 0;
   if (me == 0) {
     try {
-      ok = resident->share_inputs(n, (int) sizeof(tagint), h) ? 1 : 0;
+      ok = resident->share_inputs(n, (int) sizeof(tagint), friction_on, h) ? 1 : 0;
     } catch (std::exception &) {
       ok = 0;
     }
@@ -87,6 +89,7 @@ bool FixHardSphere::share_inputs(long n, int nlocal, const Source &src, bool sta
       const int idb = (int) sizeof(tagint);
       if (me == 0) {
         resident->put_inputs(first, nlocal, src.x, src.v, src.f, src.room);
+        if (friction_on) resident->put_spin(first, nlocal, src.omega);
         if (statics)
           resident->put_statics(first, nlocal, src.tlast, src.radius, src.rmass, src.type, src.id,
                                 idb);
@@ -94,6 +97,7 @@ bool FixHardSphere::share_inputs(long n, int nlocal, const Source &src, bool sta
         if (!peer) throw std::runtime_error("no device for the gathered step's inputs");
         peer->open(h);
         peer->put(first, nlocal, src.x, src.v, src.f, src.room);
+        if (friction_on) peer->put_spin(first, nlocal, src.omega);
         if (statics)
           peer->put_statics(first, nlocal, src.tlast, src.radius, src.rmass, src.type, src.id,
                             idb);
@@ -198,7 +202,7 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
     gather(v0, 3, MPI_DOUBLE, gath.all.v.data());
     gather(f0, 3, MPI_DOUBLE, gath.all.f.data());
   }
-  if (friction_on) gather(w0, 3, MPI_DOUBLE, gath.all.omega.data());
+  if (friction_on && !shared) gather(w0, 3, MPI_DOUBLE, gath.all.omega.data());
   // The rest only where some rank's atoms moved in its arrays (the device keeps its copies),
   // and with the copies above already in place.
   if (!same && !shared) {
@@ -217,6 +221,7 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
     HSGPU::Collide::ResidentAtoms a = resident_atoms(gath.all.view((int) n, friction_on), same);
     a.inputs_shared = shared;
     a.statics_shared = shared && !same;
+    a.spin_shared = shared && friction_on;
     a.results = &gath.results;    // the atoms with events listed, to go back to their ranks
     a.result_spin = &gath.rspin;
     try {
@@ -274,7 +279,7 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
     // velocity, time of last collision (and spin); every other atom's time of last collision
     // is shifted to the step end here, as the device did (max(t - dt, never)).
     const double t0 = MPI_Wtime();
-    if (!(shared && gath.ipc_results && !friction_on && results_shared(nlocal, whole, moved)))
+    if (!(shared && gath.ipc_results && results_shared(nlocal, whole, moved)))
       results_mpi(nlocal, whole, moved);
     report.t_resolve += MPI_Wtime() - t0;
     run_sum.t_gather += MPI_Wtime() - t0;
@@ -410,7 +415,7 @@ bool FixHardSphere::results_shared(int nlocal, bool whole, double &moved)
     }
     bool ok = false;
     try {
-      ok = resident->share_results(h);
+      ok = resident->share_results(friction_on, h);
     } catch (std::exception &) {
       ok = false;
     }
@@ -437,6 +442,11 @@ bool FixHardSphere::results_shared(int nlocal, bool whole, double &moved)
       gath.rtlast.resize(nlocal);
       peer->get_result(1, sizeof(double) * (size_t) gath.displ[me], sizeof(double) * nlocal,
                        gath.rtlast.data());
+      if (friction_on) {
+        gath.rrspin.resize(3 * (size_t) mine[1]);
+        peer->get_result(2, 3 * sizeof(double) * (size_t) mine[0],
+                         3 * sizeof(double) * (size_t) mine[1], gath.rrspin.data());
+      }
     } catch (std::exception &e) {
       ok = 0;
       gath.why = e.what();
@@ -459,6 +469,9 @@ bool FixHardSphere::results_shared(int nlocal, bool whole, double &moved)
   }
   const ResidentResult *res = (me == 0) ? gath.results.data() + mine[0] : gath.rres.data();
   const double *tl = (me == 0) ? gath.all.tlast.data() + gath.displ[0] : gath.rtlast.data();
+  const double *w = !friction_on ? nullptr
+                    : (me == 0)  ? gath.rspin.data() + 3 * (size_t) mine[0]
+                                 : gath.rrspin.data();
   double **x = atom->x, **v = atom->v;
   auto local = [&](int k) { return whole ? k : gath.lidx[k]; };
   for (int k = 0; k < nlocal; ++k) tlast[local(k)] = tl[k];
@@ -468,6 +481,8 @@ bool FixHardSphere::results_shared(int nlocal, bool whole, double &moved)
       x[i][d] = res[k].x[d];
       v[i][d] = res[k].v[d];
     }
+    if (w)
+      for (int d = 0; d < 3; ++d) atom->omega[i][d] = w[3 * k + d];
   }
   return true;
 }

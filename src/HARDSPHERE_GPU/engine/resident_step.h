@@ -120,6 +120,8 @@ namespace Collide {
     // The same for tlast, radius, rmass, type and id (put_statics() and the processes'
     // GPU::PeerInputs::put_statics()): not read here; tlast is still written back.
     bool statics_shared = false;
+    // The same for omega (put_spin(), GPU::PeerInputs::put_spin()).
+    bool spin_shared = false;
     // The caller vouches that tlast, radius, rmass, type and id hold what they held at the end
     // of the last run_atoms() that returned `done` (same atoms in the same order, nothing
     // written to them since): the step may then keep its device copies instead of copying
@@ -139,28 +141,39 @@ namespace Collide {
     /// step page-locks them in place between steps).
     virtual void forget_host_arrays() {}
     /// The gathered step of several ranks on one node: reserves the step's buffers of x, v, f,
-    /// tlast, radius, rmass, type and id (id_bytes each) for n atoms and writes handles to
-    /// them, which other processes of the node can open (GPU::PeerInputs) to copy their atoms'
+    /// tlast, radius, rmass, type and id (id_bytes each), with `spin` also omega, for n atoms
+    /// and writes handles to them, which other processes of the node can open (GPU::PeerInputs) to copy their atoms'
     /// arrays in place, into `handles` (opaque bytes, the same while the buffers stay where
     /// they are).  False where the step has no such buffers (the host's reference step) or the
     /// device refuses; then nothing changed.
-    virtual bool share_inputs(long n, int id_bytes, std::vector<char> &handles)
+    virtual bool share_inputs(long n, int id_bytes, bool spin, std::vector<char> &handles)
     {
       (void) n;
       (void) id_bytes;
+      (void) spin;
       handles.clear();
       return false;
     }
     /// After a run_atoms() with ResidentAtoms::results that returned `done`: handles to the
     /// step's device copies of those results (ResidentResult each, in the listed order) and of
-    /// every atom's tlast, which other processes of the node can open (GPU::PeerInputs::
-    /// open_results()) to read their atoms' results in place.  They stay valid until the next
+    /// every atom's tlast, with `spin` also of the results' angular velocities (3 each), which
+    /// other processes of the node can open (GPU::PeerInputs::open_results()) to read their
+    /// atoms' results in place.  They stay valid until the next
     /// share_inputs(), put_inputs(), put_statics() or run_atoms().  False where the step has no
     /// such copies; then `handles` is empty.
-    virtual bool share_results(std::vector<char> &handles)
+    virtual bool share_results(bool spin, std::vector<char> &handles)
     {
+      (void) spin;
       handles.clear();
       return false;
+    }
+    /// Copies count atoms' angular velocities (3 each) from this process into atoms [first,
+    /// first + count) of the omega buffer of share_inputs() with spin, and waits.
+    virtual void put_spin(long first, long count, const double *omega)
+    {
+      (void) first;
+      (void) count;
+      (void) omega;
     }
     /// Copies count atoms' tlast, radius, rmass, type and id from this process into atoms
     /// [first, first + count) of the buffers of share_inputs(), and waits for the copy.

@@ -49,6 +49,10 @@ namespace GPU {
   {
     throw Error("built without CUDA");
   }
+  void PeerInputs::put_spin(long, long, const double *)
+  {
+    throw Error("built without CUDA");
+  }
   void PeerInputs::open_results(const std::vector<char> &)
   {
     throw Error("built without CUDA");

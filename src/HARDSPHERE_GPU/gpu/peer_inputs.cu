@@ -12,14 +12,15 @@ namespace GPU {
     int device = 0;
     cudaStream_t stream = nullptr;
     std::vector<char> handles;    // of the buffers open now
-    // x, v, f, tlast, radius, rmass, type, id: ResidentStep::share_inputs()'s order.
-    static constexpr int NBUF = 8;
+    // x, v, f, tlast, radius, rmass, type, id and (rough spheres) omega:
+    // ResidentStep::share_inputs()'s order.
+    static constexpr int NBUF = 9;
     void *buf[NBUF] = {};
     HostRangeLock locked[3];    // the host arrays of put()
     bool locking = true;        // false once the driver refused: pageable copies from then on
 
     std::vector<char> rhandles;    // of the result buffers open now
-    void *rbuf[2] = {};
+    void *rbuf[3] = {};
 
     // Closes the opened buffers b[0 .. n) and forgets their handles h.
     static void close_buffers(void **b, int n, std::vector<char> &h)
@@ -32,7 +33,7 @@ namespace GPU {
       h.clear();
     }
     void close() { close_buffers(buf, NBUF, handles); }
-    void close_results() { close_buffers(rbuf, 2, rhandles); }
+    void close_results() { close_buffers(rbuf, 3, rhandles); }
   };
 
   PeerInputs::PeerInputs(int device) : impl(new Impl())
@@ -62,14 +63,15 @@ namespace GPU {
   void PeerInputs::open(const std::vector<char> &handles)
   {
     constexpr int NBUF = Impl::NBUF;
-    if (handles.size() != NBUF * sizeof(cudaIpcMemHandle_t))
-      throw Error("PeerInputs: not eight CUDA IPC handles");
+    const int nh = (int) (handles.size() / sizeof(cudaIpcMemHandle_t));
+    if (handles.size() % sizeof(cudaIpcMemHandle_t) != 0 || nh < NBUF - 1 || nh > NBUF)
+      throw Error("PeerInputs: not eight or nine CUDA IPC handles");
     if (handles == impl->handles) return;
     cuda_check(cudaSetDevice(impl->device), "cudaSetDevice");
     impl->close();
     cudaIpcMemHandle_t h[NBUF];
-    std::memcpy(h, handles.data(), sizeof(h));
-    for (int k = 0; k < NBUF; ++k) {
+    std::memcpy(h, handles.data(), handles.size());
+    for (int k = 0; k < nh; ++k) {
       void *p = nullptr;
       cuda_check(cudaIpcOpenMemHandle(&p, h[k], cudaIpcMemLazyEnablePeerAccess),
                  "cudaIpcOpenMemHandle");
@@ -92,14 +94,15 @@ namespace GPU {
 
   void PeerInputs::open_results(const std::vector<char> &handles)
   {
-    if (handles.size() != 2 * sizeof(cudaIpcMemHandle_t))
-      throw Error("PeerInputs: not two CUDA IPC handles of results");
+    const int nh = (int) (handles.size() / sizeof(cudaIpcMemHandle_t));
+    if (handles.size() % sizeof(cudaIpcMemHandle_t) != 0 || nh < 2 || nh > 3)
+      throw Error("PeerInputs: not two or three CUDA IPC handles of results");
     if (handles == impl->rhandles) return;
     cuda_check(cudaSetDevice(impl->device), "cudaSetDevice");
     impl->close_results();
-    cudaIpcMemHandle_t h[2];
-    std::memcpy(h, handles.data(), sizeof(h));
-    for (int k = 0; k < 2; ++k)
+    cudaIpcMemHandle_t h[3];
+    std::memcpy(h, handles.data(), handles.size());
+    for (int k = 0; k < nh; ++k)
       cuda_check(cudaIpcOpenMemHandle(&impl->rbuf[k], h[k], cudaIpcMemLazyEnablePeerAccess),
                  "cudaIpcOpenMemHandle(results)");
     impl->rhandles = handles;
@@ -108,12 +111,23 @@ namespace GPU {
   void PeerInputs::get_result(int k, size_t offset, size_t bytes, void *out)
   {
     if (bytes == 0) return;
-    if (k < 0 || k > 1 || !impl->rbuf[k]) throw Error("PeerInputs: no result buffers open");
+    if (k < 0 || k > 2 || !impl->rbuf[k]) throw Error("PeerInputs: no result buffers open");
     cuda_check(cudaSetDevice(impl->device), "cudaSetDevice");
     cuda_check(cudaMemcpyAsync(out, static_cast<const char *>(impl->rbuf[k]) + offset, bytes,
                                cudaMemcpyDefault, impl->stream),
                "cudaMemcpy(results from the gathering device)");
     cuda_check(cudaStreamSynchronize(impl->stream), "cudaMemcpy(results from the gathering device)");
+  }
+
+  void PeerInputs::put_spin(long first, long count, const double *omega)
+  {
+    if (count <= 0) return;
+    if (!impl->buf[8]) throw Error("PeerInputs: no buffer of angular velocities open");
+    cuda_check(cudaSetDevice(impl->device), "cudaSetDevice");
+    cuda_check(cudaMemcpyAsync(static_cast<double *>(impl->buf[8]) + 3 * first, omega,
+                               3 * count * sizeof(double), cudaMemcpyDefault, impl->stream),
+               "cudaMemcpy(atoms to the gathering device)");
+    cuda_check(cudaStreamSynchronize(impl->stream), "cudaMemcpy(atoms to the gathering device)");
   }
 
   void PeerInputs::put_statics(long first, long count, const double *tlast, const double *radius,

@@ -33,16 +33,20 @@ namespace GPU {
     /// room: atoms the arrays x, v, f hold (at least count), page-locked once.
     void put(long first, long count, const double *x, const double *v, const double *f,
              long room);
+    /// Copies count atoms' angular velocities (3 each) into the open buffer of them (rough
+    /// spheres: handles with omega) and waits.
+    void put_spin(long first, long count, const double *omega);
     /// Copies count atoms' times of last collision, radii, masses, types and IDs (id_bytes
     /// each) into atoms [first, first + count) of the open buffers and waits (pageable copies:
     /// these move only after atoms moved in a rank's arrays).
     void put_statics(long first, long count, const double *tlast, const double *radius,
                      const double *rmass, const int *type, const void *id, int id_bytes);
     /// Opens the buffers of `handles` (ResidentStep::share_results()'s bytes: the results of
-    /// the gathering device's step, then every atom's tlast) unless they are open now.
+    /// the gathering device's step, every atom's tlast, and for rough spheres the results'
+    /// angular velocities) unless they are open now.
     void open_results(const std::vector<char> &handles);
     /// Copies `bytes` bytes from byte `offset` of open result buffer k (0: the results, 1:
-    /// tlast) into host memory `out`, and waits.
+    /// tlast, 2: the results' angular velocities) into host memory `out`, and waits.
     void get_result(int k, size_t offset, size_t bytes, void *out);
     /// The host arrays given to put() may move or be freed.
     void forget_host_arrays();

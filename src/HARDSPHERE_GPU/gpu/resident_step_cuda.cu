@@ -1072,7 +1072,7 @@ namespace Collide {
       size_t kept_bytes[NLOCKED] = {};
 
      public:
-      bool share_inputs(long count, int id_bytes, std::vector<char> &handles) override
+      bool share_inputs(long count, int id_bytes, bool spin, std::vector<char> &handles) override
       {
         handles.clear();
         cuda_check(cudaSetDevice(device), "cudaSetDevice");
@@ -1086,7 +1086,7 @@ namespace Collide {
                            {&d_atlast, n1}, {&d_arad, n1},   {&d_amass, n1},
                            {&d_atype, (size_t) count * sizeof(int) + 8},
                            {&d_aid, (size_t) count * id_bytes + 8}};
-        cudaIpcMemHandle_t h[NLOCKED];
+        cudaIpcMemHandle_t h[NLOCKED + 1];
         for (int k = 0; k < NLOCKED; ++k) {
           const void *was = bufs[k].b->ptr;
           bufs[k].b->reserve(bufs[k].bytes, "cudaMalloc(atoms)");
@@ -1096,8 +1096,26 @@ namespace Collide {
             return false;
           }
         }
-        handles.assign(reinterpret_cast<const char *>(h), reinterpret_cast<const char *>(h) + sizeof(h));
+        if (spin) {
+          d_aomega.reserve(n3, "cudaMalloc(atoms)");
+          if (cudaIpcGetMemHandle(&h[NLOCKED], d_aomega.ptr) != cudaSuccess) {
+            (void) cudaGetLastError();
+            return false;
+          }
+        }
+        const int nh = spin ? NLOCKED + 1 : NLOCKED;
+        handles.assign(reinterpret_cast<const char *>(h), reinterpret_cast<const char *>(h + nh));
         return true;
+      }
+
+      void put_spin(long first, long count, const double *omega) override
+      {
+        if (count <= 0) return;
+        cuda_check(cudaSetDevice(device), "cudaSetDevice");
+        cuda_check(cudaMemcpyAsync(d_aomega.as<double>() + 3 * first, omega,
+                                   3 * count * sizeof(double), cudaMemcpyDefault, stream),
+                   "cudaMemcpy(atoms)");
+        cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(atoms)");
       }
 
       void put_inputs(long first, long count, const double *x, const double *v,
@@ -1111,18 +1129,19 @@ namespace Collide {
                            room);
       }
 
-      bool share_results(std::vector<char> &handles) override
+      bool share_results(bool spin, std::vector<char> &handles) override
       {
         handles.clear();
         cuda_check(cudaSetDevice(device), "cudaSetDevice");
-        cudaIpcMemHandle_t h[2];
-        DeviceBuffer *b[2] = {&d_sums, &d_atlast};
-        for (int k = 0; k < 2; ++k)
+        cudaIpcMemHandle_t h[3];
+        DeviceBuffer *b[3] = {&d_sums, &d_atlast, &d_rspin};
+        const int nh = spin ? 3 : 2;
+        for (int k = 0; k < nh; ++k)
           if (!b[k]->ptr || cudaIpcGetMemHandle(&h[k], b[k]->ptr) != cudaSuccess) {
             (void) cudaGetLastError();
             return false;
           }
-        handles.assign(reinterpret_cast<const char *>(h), reinterpret_cast<const char *>(h) + sizeof(h));
+        handles.assign(reinterpret_cast<const char *>(h), reinterpret_cast<const char *>(h + nh));
         return true;
       }
 
@@ -1988,7 +2007,9 @@ namespace Collide {
       }
       // Rough spheres: the angular velocities, every step (other fixes may change them).
       const bool spin = p.friction && a.omega;
-      if (spin) {
+      if (spin && a.spin_shared) {
+        d_aomega.reserve(n3 + 8, "cudaMalloc(atoms)");    // there already (share_inputs())
+      } else if (spin) {
         up(d_aomega, a.omega, n3);
         report.bytes_up += (long) n3;
       }
