@@ -433,7 +433,7 @@ void PairGravity::compute_gpu_overlapped(int nlocal, double &t_gathered)
     error->one(FLERR, "Pair gravity on CUDA device {}: {}", engine->device(), e.what());
   }
   const double t2 = MPI_Wtime();
-  const bool peers = peer_sources && sources_from_peers(nlocal);
+  const bool peers = peer_sources && sources_from_peers();
   if (!peers) gather->exchange();
   const double t3 = MPI_Wtime();
   try {
@@ -461,9 +461,8 @@ void PairGravity::compute_gpu_overlapped(int nlocal, double &t_gathered)
    and masses are opened by the others (CUDA IPC), which copy the other ranks' atoms from
    there (GravityEngine::finish_from_peers()).  Collective; false on every rank where some rank
    could not (the host's gather then takes over for the rest of the run, with a log line). */
-bool PairGravity::sources_from_peers(int nlocal)
+bool PairGravity::sources_from_peers()
 {
-  (void) nlocal;
   int ok = 1;
   try {
     ok = engine->share_sources(peer_mine) ? 1 : 0;

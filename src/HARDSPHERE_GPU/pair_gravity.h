@@ -77,7 +77,7 @@ class PairGravity : public Pair {
   void compute_cpu(int nlocal);
   void compute_gpu(int nlocal);
   void compute_gpu_overlapped(int nlocal, double &t_gathered);
-  bool sources_from_peers(int nlocal);
+  bool sources_from_peers();
   void gpu_args(int nlocal, HSGPU::GPU::GravityArgs &a);
   void add_gpu_results(int nlocal, bool energy_virial);
   void setup_gpu();

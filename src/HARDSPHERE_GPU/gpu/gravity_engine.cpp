@@ -36,6 +36,7 @@ namespace GPU {
     double max_mass = 0.0;
     std::vector<int> host_tidx;
     bool targets_identity = false;    // target i is source i, for all i < ntgt
+    long tmin = 0, tmax = -1;         // the least and largest target index
     // Mixed: the targets in Z-curve order (targets) and their result slots, sorted again
     // when they changed or every SORT_INTERVAL calls.  Called after the start event, so the
     // kernel time includes the sort on the calls that redo it.
@@ -194,9 +195,13 @@ namespace GPU {
     if (same) return;
     impl->host_tidx.resize(ntgt);
     impl->targets_identity = true;
+    impl->tmin = ntgt > 0 ? index[0] : 0;
+    impl->tmax = ntgt > 0 ? index[0] : -1;
     for (long i = 0; i < ntgt; ++i) {
       impl->host_tidx[i] = (int) index[i];
       impl->targets_identity &= (index[i] == i);
+      impl->tmin = std::min(impl->tmin, index[i]);
+      impl->tmax = std::max(impl->tmax, index[i]);
     }
     impl->tidx.reserve(ntgt * sizeof(int) + 1, "cudaMalloc(targets)");
     cuda_check(cudaMemcpyAsync(impl->tidx.ptr, impl->host_tidx.data(), ntgt * sizeof(int),
@@ -273,9 +278,8 @@ namespace GPU {
     const long nt = I.ntgt;
     if (first < 0 || n_own < 0 || first + n_own > n)
       throw Error("gravity engine: the own sources lie outside the system");
-    for (long t = 0; t < nt; ++t)
-      if (I.host_tidx[t] < first || I.host_tidx[t] >= first + n_own)
-        throw Error("gravity engine: a target is not among the rank's own sources");
+    if (nt > 0 && (I.tmin < first || I.tmax >= first + n_own))
+      throw Error("gravity engine: a target is not among the rank's own sources");
     if (!I.copy_stream) {
       cuda_check(cudaStreamCreateWithFlags(&I.copy_stream, cudaStreamNonBlocking),
                  "cudaStreamCreate");
@@ -293,7 +297,7 @@ namespace GPU {
     S.masses_pending = masses;
     // One (block, ilp) for every range, chosen by the system size as compute() does; each
     // range gets the splits that fill the device by itself.
-    GravityShape s = run_shape(p, choose_shape(p, a, nt, n, I.num_sms), a);
+    GravityShape s = choose_shape(p, a, nt, n, I.num_sms);    // a compiled (block, ilp)
     S.splits_own = n_own > 0 ? auto_splits(s, nt, n_own, I.num_sms) : 0;
     S.splits_low = first > 0 ? auto_splits(s, nt, first, I.num_sms) : 0;
     S.splits_high = n > first + n_own ? auto_splits(s, nt, n - first - n_own, I.num_sms) : 0;

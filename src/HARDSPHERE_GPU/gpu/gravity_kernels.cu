@@ -568,11 +568,6 @@ namespace GPU {
     return !(!a.energy_virial && a.eps2 > 1e-30 && max_mass < limit * eps3);
   }
 
-  GravityShape run_shape(Precision p, const GravityShape &want, const GravityArgs &a)
-  {
-    return compiled_shape(p, want, a);
-  }
-
   cudaError_t compute_partials(Precision p, const GravityShape &s, const void *src,
                                const SourceRange &r, const int *tidx, long ntgt,
                                const GravityArgs &a, bool self_test, void *scratch,

@@ -73,9 +73,6 @@ namespace GPU {
   /// zero: energy or virial wanted, no softening, or masses up to max_mass overflow m/eps^3).
   bool needs_self_test(Precision p, const GravityArgs &a, double max_mass);
 
-  /// The (block, ilp) the kernels run for a wanted shape and these flags (splits kept).
-  GravityShape run_shape(Precision p, const GravityShape &want, const GravityArgs &a);
-
   /// Partial sums of the sources in r for ntgt targets (tidx: their source indices, which
   /// index src for the targets' own positions too), s.splits block rows over r; no finalize:
   /// sum_partials adds the nsplits splits afterwards.  scratch: scratch_bytes(p, s', ntgt, ev)
