@@ -27,9 +27,9 @@
                again)
      serial:   (order serial, instead of the windows) serial_loop.cuh's loop, one globally
                earliest event per iteration, iterations launched ahead in a CUDA graph
-     end:      excursions to dt, the step's check (bodies beyond their step bound: any pair
-               with a neighbour that was not a candidate and could have touched declines the
-               step); only the bodies that had events go back, compacted in body order (run:
+     end:      excursions to dt, the step's check (bodies beyond their step bound, each
+               one's neighbours shared by the lanes of a warp: any pair with a neighbour that
+               was not a candidate and could have touched declines the step); only the bodies that had events go back, compacted in body order (run:
                whole Bodies; run_atoms: end-of-step x, v and tlast, written into the caller's
                arrays, or, where more than 1/32 of the atoms changed and the arrays are
                page-locked, written into the device copies and x and v copied back whole;
@@ -58,11 +58,14 @@
    HSGPU_RESIDENT_PROFILE=1 times the phases above (waiting for the stream after each; work
    enqueued ahead counts in the phase that reads it: the first window tried in the search, a
    later window's first try in the check before it, the step's end in the last window's
-   check) and prints the means per step on stderr at the end;
+   check) and prints the means per step on stderr at the end; HSGPU_RESIDENT_PROFILE=2 times
+   the same phases by CUDA events without waiting, and the device's idle time while the host
+   waits for it and enqueues the next work;
    HSGPU_RESIDENT_SCATTER=1 always sends the changed atoms back compacted (tests run both ways);
    HSGPU_RESIDENT_TARGET, _SMALL, _KF and _FLOOR override the window target, the largest group
-   resolved by one thread, and the window bounds' factor and floor fraction (tuning aids; no
-   result bit depends on them). */
+   resolved by one thread, and the window bounds' factor and floor fraction, and
+   HSGPU_RESIDENT_SIDE=0 runs the small groups after the larger ones on one stream (tuning
+   aids; no result bit depends on them). */
 #include "resident_step_cuda.h"
 
 #include "group_loop_warp.cuh"
@@ -362,7 +365,24 @@ namespace Collide {
       NearTag t;
     };
 
-    // Calls visit(j, bi, bj, ilo, ihi, r, sh) for the bodies j of the cells around c, the cell
+    /// The pair of bi and bj lower ID first: r and sh the nearest-image separation of the start
+    /// points x_lo - x_hi and its image shift.  Returns whether bj has the lower ID.
+    __device__ inline bool near_separation(const NearBody &bi, const NearBody &bj, const Grid &g,
+                                           double *r, double *sh)
+    {
+      const bool swap = bj.t.id < bi.t.id;
+      // Lower ID first, picked per component: a pointer or reference chosen between two local
+      // objects would put both in local memory.
+      double xl[3], xh[3];
+      for (int d = 0; d < 3; ++d) {
+        xl[d] = swap ? bj.p.x[d] : bi.p.x[d];
+        xh[d] = swap ? bi.p.x[d] : bj.p.x[d];
+      }
+      nearest_image_separation(xl, xh, g.prd, g.periodic, r, sh);
+      return swap;
+    }
+
+    // Calls visit(m, j, bi, bj, ilo, ihi, r, sh) for the bodies j = order[m] of the cells around c, the cell
     // of body i = order[k] (each cell once), with bi, bj their NearBody, ilo, ihi the pair
     // ordered lower ID first, and r, sh the nearest-image separation of the start points
     // x_ilo - x_ihi and its image shift.  HALF false: every body j != i of the 27 cells.
@@ -370,10 +390,12 @@ namespace Collide {
     // or dz = 0 and dy > 0, or dz = dy = 0 and dx > 0); over all k every pair of neighbouring
     // cells is then visited once (a periodic length holds at least three cells), so every pair
     // once.
+    // (first, stride): the bodies of each cell visited are first, first + stride, ... of it
+    // (a warp's lanes share them with (lane, 32); one thread takes all with (0, 1)).
     template <bool HALF, class Visit>
     __device__ void for_each_near(const NearPoint *pts, const NearTag *tags, int k, int c,
                                   const Grid &g, const int *order, const int *cstart,
-                                  const int *cend, Visit &&visit)
+                                  const int *cend, Visit &&visit, int first = 0, int stride = 1)
     {
       const int ci[3] = {c % g.n[0], (c / g.n[0]) % g.n[1], c / (g.n[0] * g.n[1])};
       const int i = order[k];
@@ -398,81 +420,110 @@ namespace Collide {
               continue;
             const int cc = (cz * g.n[1] + cy) * g.n[0] + cx;
             const bool own = dz == 0 && dy == 0 && dx == 0;
-            for (int m = (HALF && own) ? k + 1 : cstart[cc]; m < cend[cc]; ++m) {
+            for (int m = ((HALF && own) ? k + 1 : cstart[cc]) + first; m < cend[cc]; m += stride) {
               if (!HALF && m == k) continue;
               const int j = order[m];
               const NearBody bj{pts[m], tags[m]};
-              const bool swap = bj.t.id < bi.t.id;
-              // Lower ID first, picked per component: a pointer or reference chosen between
-              // two local objects would put both in local memory.
-              double xl[3], xh[3], r[3], sh[3];
-              for (int d = 0; d < 3; ++d) {
-                xl[d] = swap ? bj.p.x[d] : bi.p.x[d];
-                xh[d] = swap ? bi.p.x[d] : bj.p.x[d];
-              }
-              nearest_image_separation(xl, xh, g.prd, g.periodic, r, sh);
-              visit(j, bi, bj, swap ? j : i, swap ? i : j, r, sh);
+              double r[3], sh[3];
+              const bool swap = near_separation(bi, bj, g, r, sh);
+              visit(m, j, bi, bj, swap ? j : i, swap ? i : j, r, sh);
             }
           }
         }
       }
     }
 
+    /* The candidates a body finds kept by the count pass (sorted positions of their other
+       bodies, at stash[f * n + k] for the f-th of body k, in visiting order), so that the fill
+       pass writes them without searching again; a body with more searches again. */
+    constexpr int STASH = 16;
+
     // Launch: one thread per sorted position k (n), body i = order[k], on the grid s->grid.
     // Tests the pairs of for_each_near<true>() as the host search does: lower ID first, nearest
-    // image of the start points, |r| <= (r_lo + r_hi) + (bound_lo + bound_hi).  FILL false:
-    // count[k] = its pairs (and count[n] = 0, for the scan of n + 1), s->pair_overlap where a
-    // pair is closer than (1 - tol) contact.  FILL true: the pairs go to edges[offset[k] ...],
-    // in visiting order, those below `room` only; s->candidates = offset[n] (all of them),
-    // s->nedges = min(offset[n], room) (those written).  Reads about 14 x (cell occupancy) x
-    // 52 bytes per thread, a cell's bodies side by side.
-    template <bool FILL>
-    __global__ void pair_kernel(const NearPoint *__restrict__ pts, const NearTag *__restrict__ tags,
-                                int n, const int *__restrict__ key, const int *__restrict__ order,
-                                const int *__restrict__ cstart, const int *__restrict__ cend,
-                                int *count, const int *__restrict__ offset, Edge *edges, int room,
-                                double tol, Scalars *s)
+    // image of the start points, |r| <= (r_lo + r_hi) + (bound_lo + bound_hi).  count[k] = its
+    // pairs (and count[n] = 0, for the scan of n + 1), the first STASH of them in stash;
+    // s->pair_overlap where a pair is closer than (1 - tol) contact.  Reads about 14 x (cell
+    // occupancy) x 48 bytes per thread, a cell's bodies side by side.
+    __global__ void pair_count_kernel(const NearPoint *__restrict__ pts,
+                                      const NearTag *__restrict__ tags, int n,
+                                      const int *__restrict__ key, const int *__restrict__ order,
+                                      const int *__restrict__ cstart, const int *__restrict__ cend,
+                                      int *count, int *stash, double tol, Scalars *s)
     {
       const int k = blockIdx.x * blockDim.x + threadIdx.x;
       if (k >= n) return;
       const Grid g = s->grid;
-      if (k == 0) {
-        if (FILL) {
-          const int all = offset[n];
-          s->candidates = all;
-          s->nedges = min(all, room);
-        } else {
-          count[n] = 0;
-        }
-      }
+      if (k == 0) count[n] = 0;
       int found = 0, overlap = 0;
-      const int first = FILL ? offset[k] : 0;
       for_each_near<true>(pts, tags, k, key[k], g, order, cstart, cend,
-                          [&](int, const NearBody &bi, const NearBody &bj, int ilo, int ihi,
-                              const double *r, const double *sh) {
+                          [&](int m, int, const NearBody &bi, const NearBody &bj, int, int,
+                              const double *r, const double *) {
                             // (sums in either order: the same bits)
                             const double range =
                                 (bi.p.radius + bj.p.radius) + (bi.t.bound + bj.t.bound);
                             const double d2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
                             if (d2 > range * range) return;
-                            if (FILL) {
-                              if (first + found < room) {
-                                Edge e;
-                                e.i = ilo;
-                                e.j = ihi;
-                                for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
-                                edges[first + found] = e;
-                              }
-                            } else {
-                              const double lim = (bi.p.radius + bj.p.radius) * (1.0 - tol);
-                              if (d2 < lim * lim) overlap = 1;
-                            }
+                            const double lim = (bi.p.radius + bj.p.radius) * (1.0 - tol);
+                            if (d2 < lim * lim) overlap = 1;
+                            if (found < STASH) stash[(size_t) found * n + k] = m;
                             ++found;
                           });
-      if (!FILL) {
-        count[k] = found;
-        if (overlap) s->pair_overlap = 1;
+      count[k] = found;
+      if (overlap) s->pair_overlap = 1;
+    }
+
+    // Launch: one thread per sorted position k (n), after pair_count_kernel and the scan of its
+    // counts into offset.  Body k's pairs go to edges[offset[k] ...], in visiting order (the
+    // stash's, or for_each_near<true>() again where it found more than STASH), those below
+    // `room` only; s->candidates = offset[n] (all of them), s->nedges = min(offset[n], room)
+    // (those written).  Each pair's separation is near_separation()'s, as in the count pass.
+    __global__ void pair_fill_kernel(const NearPoint *__restrict__ pts,
+                                     const NearTag *__restrict__ tags, int n,
+                                     const int *__restrict__ key, const int *__restrict__ order,
+                                     const int *__restrict__ cstart, const int *__restrict__ cend,
+                                     const int *__restrict__ stash, const int *__restrict__ offset,
+                                     Edge *edges, int room, Scalars *s)
+    {
+      const int k = blockIdx.x * blockDim.x + threadIdx.x;
+      if (k >= n) return;
+      const Grid g = s->grid;
+      if (k == 0) {
+        const int all = offset[n];
+        s->candidates = all;
+        s->nedges = min(all, room);
       }
+      const int first = offset[k], found = offset[k + 1] - first;
+      auto put = [&](int f, int ilo, int ihi, const double *sh) {
+        if (first + f >= room) return;
+        Edge e;
+        e.i = ilo;
+        e.j = ihi;
+        for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
+        edges[first + f] = e;
+      };
+      if (found <= STASH) {
+        const int i = order[k];
+        const NearBody bi{pts[k], tags[k]};
+        for (int f = 0; f < found && first + f < room; ++f) {
+          const int m = stash[(size_t) f * n + k];
+          const int j = order[m];
+          const NearBody bj{pts[m], tags[m]};
+          double r[3], sh[3];
+          const bool swap = near_separation(bi, bj, g, r, sh);
+          put(f, swap ? j : i, swap ? i : j, sh);
+        }
+        return;
+      }
+      int f = 0;
+      for_each_near<true>(pts, tags, k, key[k], g, order, cstart, cend,
+                          [&](int, int, const NearBody &bi, const NearBody &bj, int ilo, int ihi,
+                              const double *r, const double *sh) {
+                            const double range =
+                                (bi.p.radius + bj.p.radius) + (bi.t.bound + bj.t.bound);
+                            const double d2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+                            if (d2 > range * range) return;
+                            put(f++, ilo, ihi, sh);
+                          });
     }
 
     /* The kernels over the candidate edges take their number from the device (*nedges,
@@ -803,11 +854,13 @@ namespace Collide {
       if (mine.beyond) atomicAdd(&s->end.excursion, mine.beyond);
     }
 
-    // Launch: one thread per sorted position k (n), body i = order[k].  The step's check (the
-    // host's FixHardSphere::step_exact()): for a body beyond its step bound, a pair with a
-    // neighbour that was not a candidate could have touched if the two moved at least its gap
-    // together; s->end.missed_step is set for such a pair, or where the body's partners could
-    // lie beyond the cells around it (exc_i + maxexc + 2 rmax not below the narrowest cell).
+    // Launch: one thread per sorted position k (n), body i = order[k], whole warps (blocks of
+    // a multiple of 32 threads).  The step's check (the host's FixHardSphere::step_exact()):
+    // for a body beyond its step bound, a pair with a neighbour that was not a candidate could
+    // have touched if the two moved at least its gap together; s->end.missed_step is set for
+    // such a pair, or where the body's partners could lie beyond the cells around it (exc_i +
+    // maxexc + 2 rmax not below the narrowest cell).  Few bodies are beyond their bounds:
+    // each one's neighbours are shared by the lanes of its warp.
     __global__ void step_check_kernel(const NearPoint *__restrict__ pts,
                                       const NearTag *__restrict__ tags,
                                       const double *__restrict__ bound,
@@ -817,24 +870,34 @@ namespace Collide {
                                       double maxexc, double rmax, double tol, Scalars *s)
     {
       const int k = blockIdx.x * blockDim.x + threadIdx.x;
-      if (k >= n) return;
-      const int i = order[k];
-      if (!(exc[i] > bound[i])) return;
-      const double wmin = fmin(g.width[0], fmin(g.width[1], g.width[2]));
-      if (!(exc[i] + maxexc + 2.0 * rmax < wmin)) {
-        s->end.missed_step = 1;
-        return;
+      const int lane = threadIdx.x & 31;
+      bool beyond = false;
+      if (k < n) {
+        const int i = order[k];
+        beyond = exc[i] > bound[i];
       }
-      for_each_near<false>(pts, tags, k, key[k], g, order, cstart, cend,
-                           [&](int j, const NearBody &bi, const NearBody &bj, int, int,
-                               const double *r, const double *) {
-                             const double dist = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
-                             const double contact = bi.p.radius + bj.p.radius;
-                             if (dist <= contact + (bi.t.bound + bj.t.bound))
-                               return;    // a candidate
-                             if (dist - contact > exc[i] + exc[j] + tol * contact) return;
-                             s->end.missed_step = 1;
-                           });
+      unsigned todo = __ballot_sync(WarpLoop::FULL, beyond);
+      const double wmin = fmin(g.width[0], fmin(g.width[1], g.width[2]));
+      while (todo) {
+        const int kb = k - lane + __ffs(todo) - 1;    // that lane's sorted position
+        todo &= todo - 1;
+        const int i = order[kb];
+        if (!(exc[i] + maxexc + 2.0 * rmax < wmin)) {
+          if (lane == 0) s->end.missed_step = 1;
+          continue;
+        }
+        for_each_near<false>(
+            pts, tags, kb, key[kb], g, order, cstart, cend,
+            [&](int, int j, const NearBody &bi, const NearBody &bj, int, int, const double *r,
+                const double *) {
+              const double dist = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+              const double contact = bi.p.radius + bj.p.radius;
+              if (dist <= contact + (bi.t.bound + bj.t.bound)) return;    // a candidate
+              if (dist - contact > exc[i] + exc[j] + tol * contact) return;
+              s->end.missed_step = 1;
+            },
+            lane, 32);
+      }
     }
 
     // Launch: one thread per body.  The bodies that had events, with their indices, into
@@ -1002,6 +1065,9 @@ namespace Collide {
         cuda_check(cudaMallocHost(&host_scalars, sizeof(Scalars)), "cudaMallocHost(scalars)");
         cuda_check(cudaEventCreate(&ev_up0), "cudaEventCreate");
         cuda_check(cudaEventCreate(&ev_up1), "cudaEventCreate");
+        cuda_check(cudaStreamCreateWithFlags(&side, cudaStreamNonBlocking), "cudaStreamCreate");
+        cuda_check(cudaEventCreateWithFlags(&ev_fork, cudaEventDisableTiming), "cudaEventCreate");
+        cuda_check(cudaEventCreateWithFlags(&ev_join, cudaEventDisableTiming), "cudaEventCreate");
       }
 
       ~CudaResidentStep() override
@@ -1012,7 +1078,7 @@ namespace Collide {
               &d_val2,   &d_cstart, &d_count,  &d_offset,  &d_edges,    &d_deg,  &d_adj_start,
               &d_fill,   &d_adj,    &d_joined, &d_wbound,  &d_parent,   &d_root, &d_size,
               &d_isroot, &d_gid,    &d_goff,   &d_gstart,  &d_gmembers, &d_best, &d_sums,
-              &d_lexc,   &d_temp,   &d_near,   &d_neartag, &d_order,    &d_rspin,
+              &d_lexc,   &d_temp,   &d_near,   &d_neartag, &d_order,    &d_rspin, &d_stash,
               &d_wbound2, &d_joined2})
           b->release();
         if (host_scalars) cudaFreeHost(host_scalars);
@@ -1031,8 +1097,11 @@ namespace Collide {
         for (HostRangeLock &l : locked) l.release();
         if (ev_up0) cudaEventDestroy(ev_up0);
         if (ev_up1) cudaEventDestroy(ev_up1);
+        if (ev_fork) cudaEventDestroy(ev_fork);
+        if (ev_join) cudaEventDestroy(ev_join);
+        if (side) cudaStreamDestroy(side);
         if (stream) cudaStreamDestroy(stream);
-        if (prof.on) prof.print();
+        if (prof.on || prof.line.on) prof.print();
       }
 
       CudaResidentStep(const CudaResidentStep &) = delete;
@@ -1048,6 +1117,10 @@ namespace Collide {
       cudaStream_t stream = nullptr;
       Scalars *host_scalars = nullptr;
       cudaEvent_t ev_up0 = nullptr, ev_up1 = nullptr;    // run_atoms(): around the uploads
+      // resolve_groups(): the groups of one or two bodies on a second stream, beside the
+      // larger groups' warps (forked from and joined back to `stream` by two events).
+      cudaStream_t side = nullptr;
+      cudaEvent_t ev_fork = nullptr, ev_join = nullptr;
       // Pinned: what comes back, run()'s bodies that had events with their indices, or
       // run_atoms()'s results (and their angular velocities, rough spheres).
       PinnedBuffer host_changed, host_index, host_results, host_rspin, host_control;
@@ -1176,7 +1249,7 @@ namespace Collide {
       DeviceBuffer d_bodies, d_snap, d_bound, d_scalars, d_key, d_val, d_key2, d_val2, d_cstart,
           d_count, d_offset, d_edges, d_deg, d_adj_start, d_fill, d_adj, d_joined, d_wbound,
           d_parent, d_root, d_size, d_isroot, d_gid, d_goff, d_gstart, d_gmembers, d_best, d_sums,
-          d_lexc, d_temp, d_near, d_neartag, d_order;
+          d_lexc, d_temp, d_near, d_neartag, d_order, d_stash;
       DeviceBuffer d_rspin;    // run_atoms(): the results' angular velocities (rough spheres)
       // Window bounds and joined flags come in two sets, window k's in set k % 2, so that the
       // next window's first try can be set up while this one's check may still repair it.
@@ -1210,13 +1283,93 @@ namespace Collide {
           download,
           count
         };
-        bool on = std::getenv("HSGPU_RESIDENT_PROFILE") != nullptr;
+        /* HSGPU_RESIDENT_PROFILE=2: the step as it runs, timed by CUDA events on its stream (no
+           waits added): the device's time per phase, and its idle time from each wait of the
+           host (a download of the scalars) to the first work the host enqueues after it (a
+           round trip: the copy, the wake-up, the host's own work and the next launch).  The
+           first step of the object is left out; so are steps that return early (declines). */
+        struct Timeline {
+          enum Tag { phase_end, wait_begin, wait_end, start };
+          const char *env = std::getenv("HSGPU_RESIDENT_PROFILE");
+          bool on = env && std::strcmp(env, "2") == 0;
+          std::vector<cudaEvent_t> ev;
+          std::vector<std::pair<int, int>> tag;    // (Tag, phase)
+          size_t used = 0;
+          double sec[16] = {};
+          double idle = 0.0, span = 0.0, wall = 0.0;
+          long waits = 0, steps = 0, events = 0;
+          Clock::time_point t0;
+          ~Timeline()
+          {
+            for (cudaEvent_t e : ev) cudaEventDestroy(e);
+          }
+          void record(cudaStream_t s, int t, int phase)
+          {
+            if (t == start) {
+              used = 0;
+              t0 = Clock::now();
+            }
+            if (used == ev.size()) {
+              ev.emplace_back();
+              tag.emplace_back();
+              cuda_check(cudaEventCreate(&ev.back()), "cudaEventCreate");
+            }
+            tag[used] = {t, phase};
+            cuda_check(cudaEventRecord(ev[used++], s), "cudaEventRecord");
+          }
+          /// After the step's last wait: the events of the step summed (where `count` is set).
+          void end_step(bool counted)
+          {
+            if (!on || used < 2) return;
+            cuda_check(cudaEventSynchronize(ev[used - 1]), "cudaEventSynchronize");
+            if (!counted) return;
+            float ms = 0.0f;
+            double pending = 0.0;
+            for (size_t i = 1; i < used; ++i) {
+              cuda_check(cudaEventElapsedTime(&ms, ev[i - 1], ev[i]), "cudaEventElapsedTime");
+              if (tag[i - 1].first == wait_begin && tag[i].first == wait_end) {
+                idle += 1e-3 * ms;
+                ++waits;
+                continue;
+              }
+              pending += 1e-3 * ms;
+              if (tag[i].first == phase_end) {
+                sec[tag[i].second] += pending;
+                pending = 0.0;
+              }
+            }
+            sec[download] += pending;
+            cuda_check(cudaEventElapsedTime(&ms, ev[0], ev[used - 1]), "cudaEventElapsedTime");
+            span += 1e-3 * ms;
+            wall += std::chrono::duration<double>(Clock::now() - t0).count();
+            events += (long) used;
+            ++steps;
+          }
+          void print(const char *const *name) const
+          {
+            if (!on || steps == 0) return;
+            const double k = 1e3 / steps;
+            std::fprintf(stderr,
+                         "resident timeline: %ld steps after the first, host %.4g ms per step, "
+                         "device span %.4g ms, of it idle %.4g ms in %.3g waits per step for the "
+                         "host (%.1f events per step); device time per phase",
+                         steps, k * wall, k * span, k * idle, (double) waits / steps,
+                         (double) events / steps);
+            for (int p = 0; p < count; ++p) std::fprintf(stderr, "; %s %.4g", name[p], k * sec[p]);
+            std::fprintf(stderr, " ms\n");
+          }
+        };
+
+        const char *env = std::getenv("HSGPU_RESIDENT_PROFILE");
+        bool on = env && std::strcmp(env, "2") != 0;    // waits after every phase
+        Timeline line;    // HSGPU_RESIDENT_PROFILE=2: times by events, no waits
         double sec[count] = {};
         long steps = 0, tries = 0, passes = 0, whole = 0;
         int locked = 0;
         bool warm = false;    // the first step (allocations, page-locking) is not counted
         void end_step()
         {
+          line.end_step(warm);
           if (warm) return;
           warm = true;
           for (double &x : sec) x = 0.0;
@@ -1228,7 +1381,8 @@ namespace Collide {
           static const char *name[count] = {"upload",   "scan",    "search",  "choose windows",
                                             "snapshot", "groups",  "resolve", "check",
                                             "step end", "download"};
-          if (steps == 0) return;
+          line.print(name);
+          if (steps == 0 || !on) return;
           double total = 0.0;
           for (double x : sec) total += x;
           std::fprintf(stderr, "resident profile: %ld steps after the first, %.4g ms per step",
@@ -1244,6 +1398,7 @@ namespace Collide {
 
       void mark(int phase)
       {
+        if (prof.line.on) prof.line.record(stream, Profile::Timeline::phase_end, phase);
         if (!prof.on) return;
         cuda_check(cudaStreamSynchronize(stream), "profile");
         const Clock::time_point now = Clock::now();
@@ -1257,8 +1412,16 @@ namespace Collide {
         cuda_check(cudaMemcpyAsync(host_scalars, d_scalars.ptr, sizeof(Scalars),
                                    cudaMemcpyDeviceToHost, stream),
                    "cudaMemcpy(scalars)");
-        cuda_check(cudaStreamSynchronize(stream), "resident step");
+        wait("resident step");
         return *host_scalars;
+      }
+
+      /// Waits for the stream (the profile's timeline counts the device's idle time after it).
+      void wait(const char *what)
+      {
+        if (prof.line.on) prof.line.record(stream, Profile::Timeline::wait_begin, 0);
+        cuda_check(cudaStreamSynchronize(stream), what);
+        if (prof.line.on) prof.line.record(stream, Profile::Timeline::wait_end, 0);
       }
 
       /// Enqueues a copy of the first `bytes` of src into dst (grown as needed).
@@ -1363,10 +1526,11 @@ namespace Collide {
           cstart(), cend(), d_near.as<NearPoint>(), d_neartag.as<NearTag>());
       launched("cell_range_kernel");
       // The count pass also finds overlaps.
-      pair_kernel<false><<<nblocks(n), BLOCK, 0, stream>>>(
+      d_stash.reserve((size_t) STASH * n * sizeof(int), "cudaMalloc(candidate stash)");
+      pair_count_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
           d_near.as<NearPoint>(), d_neartag.as<NearTag>(), n, d_key2.as<int>(), d_val2.as<int>(),
-          cstart(), cend(), d_count.as<int>(), nullptr, nullptr, 0, tol, scalars());
-      launched("pair_kernel (count)");
+          cstart(), cend(), d_count.as<int>(), d_stash.as<int>(), tol, scalars());
+      launched("pair_count_kernel");
       exclusive_sum(d_count.as<int>(), d_offset.as<int>(), n + 1);
       fill_edges();
     }
@@ -1377,10 +1541,11 @@ namespace Collide {
     {
       const int room = (int) edge_room;
       d_edges.reserve((size_t) room * sizeof(Edge) + 1, "cudaMalloc(candidate pairs)");
-      pair_kernel<true><<<nblocks(n), BLOCK, 0, stream>>>(
+      pair_fill_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
           d_near.as<NearPoint>(), d_neartag.as<NearTag>(), n, d_key2.as<int>(), d_val2.as<int>(),
-          cstart(), cend(), nullptr, d_offset.as<int>(), d_edges.as<Edge>(), room, tol, scalars());
-      launched("pair_kernel (fill)");
+          cstart(), cend(), d_stash.as<int>(), d_offset.as<int>(), d_edges.as<Edge>(), room,
+          scalars());
+      launched("pair_fill_kernel");
 
       // Adjacency (CSR) of the candidates.
       d_deg.reserve((n + 1) * sizeof(int), "cudaMalloc(adjacency)");
@@ -1493,14 +1658,22 @@ namespace Collide {
         resident_blocks = std::max(1, per_sm * sms);
       }
       const int warp_blocks = std::min(resident_blocks, nblocks(32L * ngroups, GROUP_BLOCK));
+      // The two kernels touch disjoint groups (bodies, best events, tallies): the small groups
+      // run on the side stream while the larger groups' warps finish their longest loops.
+      static const bool use_side = env_number("HSGPU_RESIDENT_SIDE", 1.0) != 0.0;
+      cudaStream_t two = use_side ? side : stream;
+      cuda_check(cudaEventRecord(ev_fork, stream), "cudaEventRecord");
+      cuda_check(cudaStreamWaitEvent(side, ev_fork, 0), "cudaStreamWaitEvent");
       resolve_kernel<<<warp_blocks, GROUP_BLOCK, 0, stream>>>(
           graph, d_gstart.as<int>(), d_gmembers.as<int>(), d_order.as<int>(), t_end, dp, budget,
           scalars(), d_sums.as<WinSum>());
       launched("resolve_kernel");
-      resolve_single_kernel<<<std::min(nblocks(ngroups), 16 * resident_blocks), BLOCK, 0, stream>>>(
+      resolve_single_kernel<<<std::min(nblocks(ngroups), 16 * resident_blocks), BLOCK, 0, two>>>(
           graph, d_gstart.as<int>(), d_gmembers.as<int>(), d_order.as<int>(), ngroups, t_end, dp,
           budget, scalars(), d_sums.as<WinSum>());
       launched("resolve_single_kernel");
+      cuda_check(cudaEventRecord(ev_join, side), "cudaEventRecord");
+      cuda_check(cudaStreamWaitEvent(stream, ev_join, 0), "cudaStreamWaitEvent");
     }
 
     /* Debugging aid (HSGPU_RESIDENT_VERIFY=1): the groups on the host, checked against the
@@ -1966,6 +2139,7 @@ namespace Collide {
                                      ResidentReport &report)
     {
       const auto t_start = Clock::now();
+      if (prof.line.on) prof.line.record(stream, Profile::Timeline::start, 0);
       report = ResidentReport();
       n = a.n;
       if (n <= 0) return;
@@ -2116,7 +2290,7 @@ namespace Collide {
       cuda_check(cudaMemcpyAsync(a.tlast, d_atlast.ptr, n1, cudaMemcpyDeviceToHost, stream),
                  "cudaMemcpy(tlast)");
       if (whole) {
-        cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(atoms back)");
+        wait("cudaMemcpy(atoms back)");
       } else {
         // Room for a quarter of the atoms at once, so that the buffer rarely grows.
         host_results.reserve(std::max((size_t) changed, (size_t) n / 4) * sizeof(AtomResult),
@@ -2128,7 +2302,7 @@ namespace Collide {
           fetch(d_rspin, host_rspin, (size_t) changed * 3 * sizeof(double),
                 "cudaMemcpy(atom results)");
         }
-        cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(atom results)");
+        wait("cudaMemcpy(atom results)");
         const double *w = host_rspin.as<double>();
         if (a.results) {
           // The caller takes the results as they are.
