@@ -115,15 +115,18 @@ namespace Collide {
 
   }    // namespace WarpLoop
 
-  /// resolve_group_exact() by one warp (see the file comment).
+  /// resolve_group_exact() by one warp (see the file comment).  With `bests_ready` the
+  /// members' first best events are in g.best already (group_best_event() of each, written by
+  /// the caller before the warp starts).
   __device__ inline long resolve_group_warp(const GroupGraph &g, const Params &p,
                                             const int *members, int nmembers, double t_end,
-                                            long budget, Tally &tally)
+                                            long budget, Tally &tally, bool bests_ready = false)
   {
     using namespace WarpLoop;
     const int lane = threadIdx.x & 31;
-    for (int k = lane; k < nmembers; k += 32)
-      g.best[members[k]] = group_best_event(g, p, members[k]);
+    if (!bests_ready)
+      for (int k = lane; k < nmembers; k += 32)
+        g.best[members[k]] = group_best_event(g, p, members[k]);
     __syncwarp();
     long count = 0;
     while (true) {

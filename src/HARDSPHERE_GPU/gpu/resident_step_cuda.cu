@@ -724,7 +724,19 @@ namespace Collide {
       __device__ bool operator()(int g) const { return gstart[g + 1] - gstart[g] > small; }
     };
 
-    // Launch: whole warps, any number.  Each warp takes the next of the s->nmulti groups of
+    // Launch: one thread per body (n).  The first best event of every body in a group of more
+    // than `small` bodies (root[b]'s size), for resolve_kernel: all at once, rather than a
+    // group's in turn by its warp's lanes.
+    __global__ void first_bests_kernel(GroupGraph graph, const int *__restrict__ root,
+                                       const int *__restrict__ size, int n, int small,
+                                       const __grid_constant__ Params p)
+    {
+      const int b = blockIdx.x * blockDim.x + threadIdx.x;
+      if (b >= n || size[root[b]] <= small) return;
+      graph.best[b] = group_best_event(graph, p, b);
+    }
+
+    // Launch: whole warps, any number, after first_bests_kernel.  Each warp takes the next of the s->nmulti groups of
     // two or more bodies (order[0 .. nmulti), taken through s->next_group, zeroed by
     // members_kernel) until none
     // is left: its events before t_end, at most budget (group_loop_warp.cuh), and its tally
@@ -744,7 +756,7 @@ namespace Collide {
         const int g = order[k];
         const int lo = gstart[g], hi = gstart[g + 1];
         Tally t;
-        resolve_group_warp(graph, p, gmembers + lo, hi - lo, t_end, budget, t);
+        resolve_group_warp(graph, p, gmembers + lo, hi - lo, t_end, budget, t, true);
         if (lane == 0) sums[k] = win_sum(t);
       }
     }
@@ -1664,6 +1676,9 @@ namespace Collide {
       cudaStream_t two = use_side ? side : stream;
       cuda_check(cudaEventRecord(ev_fork, stream), "cudaEventRecord");
       cuda_check(cudaStreamWaitEvent(side, ev_fork, 0), "cudaStreamWaitEvent");
+      first_bests_kernel<<<nblocks(n), BLOCK, 0, stream>>>(graph, d_root.as<int>(),
+                                                          d_size.as<int>(), n, small, dp);
+      launched("first_bests_kernel");
       resolve_kernel<<<warp_blocks, GROUP_BLOCK, 0, stream>>>(
           graph, d_gstart.as<int>(), d_gmembers.as<int>(), d_order.as<int>(), t_end, dp, budget,
           scalars(), d_sums.as<WinSum>());
