@@ -11,17 +11,20 @@
                reductions, one atomic per block)
      search:   the grid of cells (from the scan's largest reach, on the device), cell of every
                start point, CUB radix sort by cell, cell ranges and the start points in cell
-               order, candidate pairs counted, CUB scan, written (one thread per body, the 13
-               cells on one side of it and the later bodies of its own: each pair once) into
-               room for a quarter more than the last step's, pair overlaps; CSR adjacency of
-               the candidates
+               order, candidate pairs counted (one thread per body, the 13 cells on one side
+               of it and the later bodies of its own: each pair once; the first 16 of a body
+               kept), CUB scan, written from what the count kept (a body with more searches
+               again) into room for a quarter more than the last step's, pair overlaps; CSR
+               adjacency of the candidates
      windows:  for each window length tried (window_chooser.h): window start points and bounds,
                edges joined (a flag per candidate), connected components by a lock-free
                union-find whose roots are the components' smallest indices, group sizes and the
                largest (read by the host); for the window taken: groups numbered in root
                order (a CUB scan), members placed, bodies snapshot, groups partitioned by size
                (CUB): one thread per group of one or two bodies runs collision_group_loop.h's
-               exact loop, one warp per larger group group_loop_warp.cuh's, per-group tallies
+               exact loop (on a second stream, beside the larger groups), one warp per larger
+               group group_loop_warp.cuh's (the larger groups' first best events computed
+               before, one thread per body), per-group tallies
                reduced (CUB, a fixed order), excursions, pairs not joined that could have
                touched joined (if any: bodies back to the snapshot, components again, resolved
                again)
