@@ -67,8 +67,9 @@
    HSGPU_RESIDENT_SCATTER=1 always sends the changed atoms back compacted (tests run both ways);
    HSGPU_RESIDENT_TARGET, _SMALL, _KF and _FLOOR override the window target, the largest group
    resolved by one thread, and the window bounds' factor and floor fraction, and
-   HSGPU_RESIDENT_SIDE=0 runs the small groups after the larger ones on one stream (tuning
-   aids; no result bit depends on them). */
+   HSGPU_RESIDENT_SIDE=0 runs the small groups after the larger ones on one stream, and
+   HSGPU_RESIDENT_STASH=k keeps k < 16 candidates per body from the count pass (tuning and
+   testing aids; no result bit depends on them). */
 #include "resident_step_cuda.h"
 
 #include "group_loop_warp.cuh"
@@ -290,6 +291,24 @@ namespace Collide {
       return small;
     }
 
+    /* The candidates a body finds kept by the count pass (sorted positions of their other
+       bodies, at stash[f * n + k] for the f-th of body k, in visiting order), so that the fill
+       pass writes them without searching again; a body with more searches again.  (`keep`
+       below: STASH, or fewer to test the search again: HSGPU_RESIDENT_STASH.) */
+    constexpr int STASH = 16;
+
+    /// The candidates kept per body by the count pass: STASH, or HSGPU_RESIDENT_STASH (0 ...
+    /// STASH; a testing aid: fewer send more bodies through the search again).
+    int stash_keep()
+    {
+      static const int keep = [] {
+        const char *e = std::getenv("HSGPU_RESIDENT_STASH");
+        const int k = e ? std::atoi(e) : STASH;
+        return k < 0 ? 0 : (k > STASH ? STASH : k);
+      }();
+      return keep;
+    }
+
     /// search_grid()'s most cells for n bodies.
     long most_cells(int n)
     {
@@ -436,22 +455,18 @@ namespace Collide {
       }
     }
 
-    /* The candidates a body finds kept by the count pass (sorted positions of their other
-       bodies, at stash[f * n + k] for the f-th of body k, in visiting order), so that the fill
-       pass writes them without searching again; a body with more searches again. */
-    constexpr int STASH = 16;
 
     // Launch: one thread per sorted position k (n), body i = order[k], on the grid s->grid.
     // Tests the pairs of for_each_near<true>() as the host search does: lower ID first, nearest
     // image of the start points, |r| <= (r_lo + r_hi) + (bound_lo + bound_hi).  count[k] = its
-    // pairs (and count[n] = 0, for the scan of n + 1), the first STASH of them in stash;
+    // pairs (and count[n] = 0, for the scan of n + 1), the first `keep` of them in stash;
     // s->pair_overlap where a pair is closer than (1 - tol) contact.  Reads about 14 x (cell
     // occupancy) x 48 bytes per thread, a cell's bodies side by side.
     __global__ void pair_count_kernel(const NearPoint *__restrict__ pts,
                                       const NearTag *__restrict__ tags, int n,
                                       const int *__restrict__ key, const int *__restrict__ order,
                                       const int *__restrict__ cstart, const int *__restrict__ cend,
-                                      int *count, int *stash, double tol, Scalars *s)
+                                      int *count, int *stash, int keep, double tol, Scalars *s)
     {
       const int k = blockIdx.x * blockDim.x + threadIdx.x;
       if (k >= n) return;
@@ -468,7 +483,7 @@ namespace Collide {
                             if (d2 > range * range) return;
                             const double lim = (bi.p.radius + bj.p.radius) * (1.0 - tol);
                             if (d2 < lim * lim) overlap = 1;
-                            if (found < STASH) stash[(size_t) found * n + k] = m;
+                            if (found < keep) stash[(size_t) found * n + k] = m;
                             ++found;
                           });
       count[k] = found;
@@ -477,15 +492,16 @@ namespace Collide {
 
     // Launch: one thread per sorted position k (n), after pair_count_kernel and the scan of its
     // counts into offset.  Body k's pairs go to edges[offset[k] ...], in visiting order (the
-    // stash's, or for_each_near<true>() again where it found more than STASH), those below
+    // stash's, or for_each_near<true>() again where it found more than `keep`), those below
     // `room` only; s->candidates = offset[n] (all of them), s->nedges = min(offset[n], room)
     // (those written).  Each pair's separation is near_separation()'s, as in the count pass.
     __global__ void pair_fill_kernel(const NearPoint *__restrict__ pts,
                                      const NearTag *__restrict__ tags, int n,
                                      const int *__restrict__ key, const int *__restrict__ order,
                                      const int *__restrict__ cstart, const int *__restrict__ cend,
-                                     const int *__restrict__ stash, const int *__restrict__ offset,
-                                     Edge *edges, int room, Scalars *s)
+                                     const int *__restrict__ stash, int keep,
+                                     const int *__restrict__ offset, Edge *edges, int room,
+                                     Scalars *s)
     {
       const int k = blockIdx.x * blockDim.x + threadIdx.x;
       if (k >= n) return;
@@ -504,7 +520,7 @@ namespace Collide {
         for (int d = 0; d < 3; ++d) e.shift[d] = sh[d];
         edges[first + f] = e;
       };
-      if (found <= STASH) {
+      if (found <= keep) {
         const int i = order[k];
         const NearBody bi{pts[k], tags[k]};
         for (int f = 0; f < found && first + f < room; ++f) {
@@ -1544,7 +1560,7 @@ namespace Collide {
       d_stash.reserve((size_t) STASH * n * sizeof(int), "cudaMalloc(candidate stash)");
       pair_count_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
           d_near.as<NearPoint>(), d_neartag.as<NearTag>(), n, d_key2.as<int>(), d_val2.as<int>(),
-          cstart(), cend(), d_count.as<int>(), d_stash.as<int>(), tol, scalars());
+          cstart(), cend(), d_count.as<int>(), d_stash.as<int>(), stash_keep(), tol, scalars());
       launched("pair_count_kernel");
       exclusive_sum(d_count.as<int>(), d_offset.as<int>(), n + 1);
       fill_edges();
@@ -1558,8 +1574,8 @@ namespace Collide {
       d_edges.reserve((size_t) room * sizeof(Edge) + 1, "cudaMalloc(candidate pairs)");
       pair_fill_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
           d_near.as<NearPoint>(), d_neartag.as<NearTag>(), n, d_key2.as<int>(), d_val2.as<int>(),
-          cstart(), cend(), d_stash.as<int>(), d_offset.as<int>(), d_edges.as<Edge>(), room,
-          scalars());
+          cstart(), cend(), d_stash.as<int>(), stash_keep(), d_offset.as<int>(),
+          d_edges.as<Edge>(), room, scalars());
       launched("pair_fill_kernel");
 
       // Adjacency (CSR) of the candidates.
