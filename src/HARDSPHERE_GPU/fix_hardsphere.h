@@ -147,6 +147,7 @@ class FixHardSphere : public Fix {
   struct CommCount {
     double collectives = 0.0, halos = 0.0, bytes = 0.0;
     double messages = 0.0;    // point-to-point messages received (gathers to neighbours)
+    double seconds = 0.0;     // in those operations, waiting for the other ranks included
   };
   CommCount comm_step;      // this step so far
   CommCount comm_last;      // the last step
@@ -165,6 +166,7 @@ class FixHardSphere : public Fix {
     double t_back = 0.0;        // gpu/gather: of those, sending the results back
     double collectives = 0.0, halos = 0.0, bytes = 0.0;    // communication (this rank's)
     double messages = 0.0;
+    double t_comm = 0.0;    // seconds in the communication above (waits for other ranks too)
     bigint declined[5] = {0, 0, 0, 0, 0};                  // steps handed back, by ResidentOutcome
   } run_sum;
 

@@ -50,7 +50,9 @@ void LammpsExchange::to_foreign(const std::vector<double> &local, int nval,
     for (int q = 0; q < nval; ++q) fix->xfwd[nval * i + q] = local[nval * b + q];
   }
   fix->fwd_nval = nval;
+  const double t0 = MPI_Wtime();
   HsgpuCompat::forward_comm(fix->comm, fix);
+  fix->comm_step.seconds += MPI_Wtime() - t0;
   fix->fwd_nval = 0;
   fix->count_halo(nval);
   const size_t nf = fix->foreign_ghost.size();
@@ -79,7 +81,9 @@ void LammpsExchange::to_owner(const std::vector<double> &foreign, int nval, int 
     for (int q = 0; q < nval; ++q) fix->xfwd[nval * j + q] = foreign[nval * f + q];
   }
   fix->fwd_nval = nval;
+  const double t0 = MPI_Wtime();
   HsgpuCompat::reverse_comm(fix->comm, fix);
+  fix->comm_step.seconds += MPI_Wtime() - t0;
   fix->fwd_nval = 0;
   fix->count_halo(nval);
   local.resize((size_t) nval * nlocal);
@@ -93,8 +97,10 @@ void LammpsExchange::allgather(const std::vector<double> &send, std::vector<doub
                                long &mine)
 {
   std::vector<int> counts, displs;
-  if (!HSGPU::allgather_doubles(fix->world, send, recv, counts, displs))
-    fix->error->all(FLERR, "Fix hardsphere: too many atoms in groups that span ranks");
+  const double t0 = MPI_Wtime();
+  const bool fits = HSGPU::allgather_doubles(fix->world, send, recv, counts, displs);
+  fix->comm_step.seconds += MPI_Wtime() - t0;
+  if (!fits) fix->error->all(FLERR, "Fix hardsphere: too many atoms in groups that span ranks");
   mine = displs[fix->comm->me];
   // Two collectives: the counts, then the other ranks' values.
   fix->count_collective((double) (fix->comm->nprocs - 1) * sizeof(int));
@@ -113,6 +119,7 @@ bool LammpsExchange::to_ranks(const std::vector<int> &dest,
   // Consecutive calls use different tags, so that a message of the next call (sent by a rank
   // whose barrier has completed) is never taken by a rank still probing in this one.
   const int TAG = 7411 + (int) (++p2p_calls & 1);
+  const double t0 = MPI_Wtime();
   const int nd = (int) dest.size();
   std::vector<MPI_Request> sreq(nd, MPI_REQUEST_NULL);
   for (int k = 0; k < nd; ++k) {
@@ -147,6 +154,7 @@ bool LammpsExchange::to_ranks(const std::vector<int> &dest,
       if (done) break;
     }
   }
+  fix->comm_step.seconds += MPI_Wtime() - t0;
   std::sort(got.begin(), got.end(),
             [](const std::pair<int, std::vector<double>> &a,
                const std::pair<int, std::vector<double>> &b) { return a.first < b.first; });

@@ -125,7 +125,9 @@ void FixHardSphere::forward_state(double drift_dt)
     g[8] = i;
     g[9] = step_bound(i, drift_dt);
   }
+  const double t0 = MPI_Wtime();
   HsgpuCompat::forward_comm(comm, this);
+  comm_step.seconds += MPI_Wtime() - t0;
   // Ghosts whose owner is another rank: their values came in a message.
   remote_ghosts = 0;
   const int nall = nlocal + atom->nghost;
@@ -137,7 +139,9 @@ void FixHardSphere::forward_state(double drift_dt)
 /* MPI_Allreduce over the world, counted in the step's communication. */
 void FixHardSphere::allreduce(const void *in, void *out, int n, MPI_Datatype type, MPI_Op op)
 {
+  const double t0 = MPI_Wtime();
   MPI_Allreduce(const_cast<void *>(in), out, n, type, op, world);
+  comm_step.seconds += MPI_Wtime() - t0;
   int size = 0;
   MPI_Type_size(type, &size);
   count_collective((double) n * size);
@@ -1434,6 +1438,7 @@ void FixHardSphere::post_integrate()
   run_sum.halos += comm_step.halos;
   run_sum.bytes += comm_step.bytes;
   run_sum.messages += comm_step.messages;
+  run_sum.t_comm += comm_step.seconds;
   const double spent = MPI_Wtime() - t_start;
   t_step += spent;
   run_sum.t_step += spent;
@@ -1449,6 +1454,10 @@ void FixHardSphere::post_run()
   double mine[2] = {r.bytes, r.messages}, all[2] = {0.0, 0.0};
   if (comm->nprocs > 1) MPI_Allreduce(mine, all, 2, MPI_DOUBLE, MPI_SUM, world);
   const double bytes = all[0], messages = all[1];
+  // The seconds in the step's communication: the least and the most of any rank.
+  double tc[2] = {-r.t_comm, r.t_comm}, tcx[2] = {0.0, 0.0};
+  if (comm->nprocs > 1) MPI_Allreduce(tc, tcx, 2, MPI_DOUBLE, MPI_MAX, world);
+  const double tcomm_least = -tcx[0], tcomm_most = tcx[1];
   // The gathered step's copies of x, v, f to rank 0's device: the slowest rank's time copying,
   // and the longest wait of a rank for the others.
   double tputs[2] = {gath.t_put, gath.t_wait}, tmax[2] = {0.0, 0.0};
@@ -1481,9 +1490,11 @@ void FixHardSphere::post_run()
     utils::logmesg(lmp,
                    "Fix hardsphere: communication per step: {:.4g} collective operations, {:.4g} "
                    "ghost updates, {:.4g} messages to neighbouring ranks ({:.3g} gathers with "
-                   "the neighbouring ranks only), {:.4g} kB received by all {} ranks together\n",
+                   "the neighbouring ranks only), {:.4g} kB received by all {} ranks together; "
+                   "{:.4g} to {:.4g} ms per step in it on a rank (waiting for the other ranks "
+                   "included)\n",
                    r.collectives / n, r.halos / n, messages / n, r.neighbour / n,
-                   1e-3 * bytes / n, comm->nprocs);
+                   1e-3 * bytes / n, comm->nprocs, 1e3 * tcomm_least / n, 1e3 * tcomm_most / n);
   if (resident) {
     using HSGPU::Collide::ResidentOutcome;
     auto back = [&](ResidentOutcome o) { return r.declined[(int) o]; };

@@ -11,6 +11,8 @@
 #include <cstdlib>
 #include <stdexcept>
 #include <cstring>
+#include <fstream>
+#include <sstream>
 
 namespace hsgpu_test {
 
@@ -20,6 +22,14 @@ double max_abs_diff(const std::vector<double> &a, const std::vector<double> &b)
   double w = 0.0;
   for (size_t i = 0; i < a.size(); ++i) w = std::max(w, std::fabs(a[i] - b[i]));
   return w;
+}
+
+std::string file_text(const std::string &path)
+{
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
 }
 
 #pragma GCC diagnostic push

@@ -62,6 +62,9 @@ double closest_pair_gap(const std::vector<double> &x, double diameter, const dou
 // The largest |a[i] - b[i]|; infinite where the sizes differ.
 double max_abs_diff(const std::vector<double> &a, const std::vector<double> &b);
 
+// The text of a file ("" where there is none).
+std::string file_text(const std::string &path);
+
 // printf-style formatting of input lines, up to four numbers (formats are the tests' literals).
 std::string fmt(const char *format, double a = 0, double b = 0, double c = 0, double d = 0);
 

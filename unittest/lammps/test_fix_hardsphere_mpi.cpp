@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <mpi.h>
+#include <regex>
 #include <string>
 #include <vector>
 
@@ -472,7 +473,8 @@ TEST(FixHardSphereMPI, CommunicationOfTheStepIsCounted)
   int me = 0, np = 1;
   MPI_Comm_rank(MPI_COMM_WORLD, &me);
   MPI_Comm_size(MPI_COMM_WORLD, &np);
-  const Snapshot s = run_on(MPI_COMM_WORLD, "parallel", 50);
+  const std::string log = "hs_comm_np" + std::to_string(np) + ".log";
+  const Snapshot s = run_on(MPI_COMM_WORLD, "parallel", 50, false, false, {"log " + log});
   if (np == 1) {
     EXPECT_EQ(s.comm[0], 0.0);
     EXPECT_EQ(s.comm[1], 0.0);
@@ -489,6 +491,20 @@ TEST(FixHardSphereMPI, CommunicationOfTheStepIsCounted)
   MPI_Allreduce(hi, ghi, 2, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
   EXPECT_EQ(glo[0], ghi[0]) << "collectives counted alike on every rank";
   EXPECT_EQ(glo[1], ghi[1]) << "ghost updates counted alike on every rank";
+  if (me == 0) {
+    // The run's line: the least and the most time of a rank in the communication.
+    const std::string text = hsgpu_test::file_text(log);
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(
+        text, m, std::regex("; ([0-9.eE+-]+) to ([0-9.eE+-]+) ms per step in it on a rank")))
+        << "no communication time in the fix's log line";
+    const double least = std::stod(m[1].str()), most = std::stod(m[2].str());
+    EXPECT_GE(least, 0.0);
+    EXPECT_LE(least, most);
+    EXPECT_GT(most, 0.0) << "some time in the step's collectives and ghost updates";
+    std::printf("[ MPI      ] %d ranks: %.3g to %.3g ms per step in the communication\n", np,
+                least, most);
+  }
   if (me == 0)
     std::printf("[ MPI      ] %d ranks, last step: %.0f collectives, %.0f ghost updates, %.0f "
                 "bytes received\n",

@@ -14,12 +14,11 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
-#include <sstream>
 #include <string>
 #include <mpi.h>
 
 using hsgpu_test::GravitySystem;
+using hsgpu_test::file_text;
 using hsgpu_test::Lammps;
 
 namespace {
@@ -53,15 +52,6 @@ double max_rel_diff(const std::vector<double> &a, const std::vector<double> &b)
   for (size_t i = 0; i < a.size(); ++i) scale = std::max(scale, std::fabs(b[i]));
   for (size_t i = 0; i < a.size(); ++i) worst = std::max(worst, std::fabs(a[i] - b[i]));
   return scale > 0 ? worst / scale : worst;
-}
-
-// The text of a file ("" where there is none).
-std::string file_text(const std::string &path)
-{
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
 }
 
 // logfile: where the run on all ranks writes its LAMMPS log.
