@@ -1063,6 +1063,7 @@ void FixHardSphere::setup(int vflag)
   // run's first thermo output shows the collisions' share of the pressure, as every later
   // one does.
   run_sum = RunSummary();
+  driver.times = HSGPU::Collide::DriverTimes();
   run_sum.t_search = -t_search;
   run_sum.t_resolve = -t_resolve;
   run_sum.repairs = -n_repair;
@@ -1458,6 +1459,22 @@ void FixHardSphere::post_run()
   double tc[2] = {-r.t_comm, r.t_comm}, tcx[2] = {0.0, 0.0};
   if (comm->nprocs > 1) MPI_Allreduce(tc, tcx, 2, MPI_DOUBLE, MPI_MAX, world);
   const double tcomm_least = -tcx[0], tcomm_most = tcx[1];
+  // Where the windows' time went on the ranks: the least and the most of any rank per part.
+  const HSGPU::Collide::DriverTimes &dtm = driver.times;
+  const double tsearch = t_search + r.t_search;
+  constexpr int NT = 10;
+  const double tmine[NT] = {dtm.edges,       dtm.groups,      dtm.local,
+                            dtm.spanning,    tsearch,         dtm.span_pack,
+                            dtm.span_gather, dtm.span_resolve, dtm.span_results,
+                            dtm.span_join};
+  double tw[2 * NT], twx[2 * NT] = {0.0};
+  for (int k = 0; k < NT; ++k) {
+    tw[k] = -tmine[k];    // the least, as minus the most of the negatives
+    tw[NT + k] = tmine[k];
+  }
+  if (comm->nprocs > 1) MPI_Allreduce(tw, twx, 2 * NT, MPI_DOUBLE, MPI_MAX, world);
+  auto least = [&](int k) { return -1e3 * twx[k] / (double) r.steps; };
+  auto most = [&](int k) { return 1e3 * twx[NT + k] / (double) r.steps; };
   // The gathered step's copies of x, v, f to rank 0's device: the slowest rank's time copying,
   // and the longest wait of a rank for the others.
   double tputs[2] = {gath.t_put, gath.t_wait}, tmax[2] = {0.0, 0.0};
@@ -1495,6 +1512,22 @@ void FixHardSphere::post_run()
                    "included)\n",
                    r.collectives / n, r.halos / n, messages / n, r.neighbour / n,
                    1e-3 * bytes / n, comm->nprocs, 1e3 * tcomm_least / n, 1e3 * tcomm_most / n);
+  if (comm->nprocs > 1 && most(0) + most(1) + most(2) + most(3) > 0.0) {
+    utils::logmesg(lmp,
+                   "Fix hardsphere: a rank's search and windows, ms per step (least to most of "
+                   "any rank): search {:.4g} to {:.4g}; window lengths tried {:.4g} to {:.4g}, "
+                   "groups {:.4g} to {:.4g}, groups resolved here {:.4g} to {:.4g}, groups "
+                   "spanning ranks (gathered, resolved, results sent back; waits included) "
+                   "{:.4g} to {:.4g}\n",
+                   least(4), most(4), least(0), most(0), least(1), most(1), least(2), most(2),
+                   least(3), most(3));
+    utils::logmesg(lmp,
+                   "Fix hardsphere: of the groups spanning ranks, ms per step: packing {:.4g} to "
+                   "{:.4g}, the gather {:.4g} to {:.4g}, resolving {:.4g} to {:.4g}, results to "
+                   "their owners {:.4g} to {:.4g}, missed pairs joined {:.4g} to {:.4g}\n",
+                   least(5), most(5), least(6), most(6), least(7), most(7), least(8), most(8),
+                   least(9), most(9));
+  }
   if (resident) {
     using HSGPU::Collide::ResidentOutcome;
     auto back = [&](ResidentOutcome o) { return r.declined[(int) o]; };

@@ -2,6 +2,7 @@
 #include "window_driver.h"
 
 #include <algorithm>
+#include <chrono>
 #include <functional>
 #include <cmath>
 #include <limits>
@@ -11,6 +12,15 @@ namespace HSGPU {
 namespace Collide {
 
   namespace {
+
+    /// Seconds since t, and t moved to now (for DriverTimes).
+    double lap(std::chrono::steady_clock::time_point &t)
+    {
+      const auto now = std::chrono::steady_clock::now();
+      const double s = std::chrono::duration<double>(now - t).count();
+      t = now;
+      return s;
+    }
 
     /// Relative margin on contact distances for round-off in the join and check tests.
     constexpr double MARGIN = 1e-9;
@@ -477,6 +487,7 @@ namespace Collide {
                                       long &largest, long &ngroups, long &nbound)
   {
     const int nbody = body_values(spin);
+    auto clock = std::chrono::steady_clock::now();
     // Over the view (gather_view): the local bodies of the groups marked in gsel, whose window
     // edges are all among the view's (each sent by the owner of its lower-ID body).
     const int nb = gather_view ? nlocal_bodies : (int) bodies.size();
@@ -539,6 +550,7 @@ namespace Collide {
       send.insert(send.end(), lows.begin() + lstart[b], lows.begin() + lstart[b + 1]);
       sent.push_back(b);
     }
+    times.span_pack += lap(clock);
     long mine_off = 0;
     auto group_gathered = [&](int &ngr) {
       UnionFind guf;
@@ -630,10 +642,14 @@ namespace Collide {
       ex.allgather(send, recv, mine_off);
       gbodies.clear();
       gedges.clear();
-      if (recv.empty()) return;
+      if (recv.empty()) {
+        times.span_gather += lap(clock);
+        return;
+      }
       unpack_gathered(mine_off, false);
       group_gathered(ngr);
     }
+    times.span_gather += lap(clock);
     const int ng = (int) gbodies.size();
     // Only the groups with a body of this rank are resolved here (the others' results would
     // be thrown away): the work per rank follows its own boundary.  Each group's tally and
@@ -700,7 +716,9 @@ namespace Collide {
           std::copy(gvir.begin() + 6 * (size_t) k, gvir.begin() + 6 * (size_t) (k + 1),
                     wvir.begin() + 6 * (size_t) gmine[k]);
       }
+    times.span_resolve += lap(clock);
     if (sparse && results_to_owners(bodies, ngr, ex) != expect) results_missing = true;
+    times.span_results += lap(clock);
   }
 
   /* After a gather to the neighbours: the results of the bodies of the ngr groups resolved here
@@ -1147,11 +1165,14 @@ namespace Collide {
                                      int &capped, long (&acc)[5], long &largest, bool edges_made)
   {
     const int nb = (int) bodies.size();
+    auto clock = std::chrono::steady_clock::now();
     if (!edges_made) {
       start_cached = false;
       largest = std::max(largest, window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex));
+      times.edges += lap(clock);
     }
     window_groups(nb, (int) foreign.size());
+    times.groups += lap(clock);
     // Local groups, each with its own tally (a repair replaces a group's tally).
     if (snap.capacity() < bodies.size()) snap.reserve(bodies.size() + bodies.size() / 8 + 64);
     snap.assign(bodies.begin(), bodies.end());
@@ -1173,6 +1194,7 @@ namespace Collide {
     long repairs = 0;
     merged.reset(nlocal_groups);
     largest = std::max(largest, repair_local(bodies, edges, p, t1, backend, tloc.events, repairs));
+    times.local += lap(clock);
     // Boundary groups, the same on every rank; repaired until no missed pair is left.
     long bl = 0, bg = 0, nbound = 0, joined_all = 0;
     const Tally tbnd_start = tbnd;
@@ -1180,12 +1202,15 @@ namespace Collide {
       tbnd = tbnd_start;
       bl = bg = nbound = 0;
       resolve_boundary(bodies, fedges, foreign, p, t1, backend, ex, tbnd, bl, bg, nbound);
+      auto join_clock = std::chrono::steady_clock::now();
       excursions(bodies, t1, &bsent);    // the others are as the local pass left them
       const long joined = join_missed_boundary(bodies, edges, fedges, foreign, ex);
+      times.span_join += lap(join_clock);
       ++stats_gathers;
       if (joined == 0) break;
       joined_all += joined;
     }
+    times.spanning += lap(clock);
     if (tally_virial)
       for (size_t k = 0; k < 6 * (size_t) nb; ++k) body_virial_out[k] += wvir[k];
     int cp = cap.capped | tbnd.capped;
@@ -1289,10 +1314,12 @@ namespace Collide {
       // No view: local groups here, boundary groups gathered, as before the view existed.
       long largest;
       start_cached = false;
+      auto clock = std::chrono::steady_clock::now();
       const double t1 = chooser.next(
           t0, k, dt, s, target,
           [&](double t) { return window_edges(bodies, edges, fedges, foreign, t0, t, s, ex); },
           largest);
+      times.edges += lap(clock);
       largest_all = std::max(largest_all, largest);
       int capped = 0;
       fallback_window(bodies, edges, fedges, foreign, p, s, backend, ex, t0, t1, tloc, tbnd, capped,
@@ -1306,16 +1333,20 @@ namespace Collide {
     }
     while (t0 < dt) {
       // The foreign copies are current where the last window's check brought them.
+      auto clock = std::chrono::steady_clock::now();
       if (whole || !fresh) refresh_foreign(bodies, nb, ex, whole);
       whole = false;
       fresh = false;
+      times.groups += lap(clock);
       long largest;
       start_cached = false;    // a new window start: view_edges() computes its start points
       const double t1 = chooser.next(
           t0, k, dt, s, target, [&](double t) { return view_edges(bodies, t0, t, s, ex); },
           largest);
+      times.edges += lap(clock);
       largest_all = std::max(largest_all, largest);
       view_groups(nv, nb);
+      times.groups += lap(clock);
       int capped = 0;
       bool gather = false;    // the whole window by the old path
       if (!gather) {
@@ -1357,6 +1388,7 @@ namespace Collide {
           if (tally_virial) w.body_virial = wvir.data();
           backend.resolve(w, p, cap);
         }
+        times.local += lap(clock);
         Tally tgw;
         long bl = 0, bg = 0, nbound = 0;
         gather_broken = false;
@@ -1414,12 +1446,14 @@ namespace Collide {
             ++stats_gathers;
           }
         }
+        times.spanning += lap(clock);
         excursions(bodies, t1);
         merged.reset(ng);
         long repairs = 0, rl = 0;
         const int r = repair_view(bodies, p, t1, backend, ex, tloc.events, cap.capped | tgw.capped,
                                   repairs, rl);
         largest_all = std::max({largest_all, rl, bl});
+        times.local += lap(clock);
         if (r < 0) {
           // A repair reaches an incomplete node somewhere: the window again, with the gather.
           for (int b = 0; b < nv; ++b) bodies[b] = snap[b];

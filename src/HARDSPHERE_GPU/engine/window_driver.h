@@ -164,8 +164,25 @@ namespace Collide {
                                  // only (the ranks of the foreign nodes in the groups)
   };
 
+  /// Where a rank's run() spent its time, seconds summed over the calls (wall clock; the
+  /// waits for other ranks inside the exchanges included where they fall).
+  struct DriverTimes {
+    double edges = 0.0;       // window lengths tried: start points, bounds, pairs joined
+    double groups = 0.0;      // groups of the window taken, the view's refresh
+    double local = 0.0;       // groups resolved here: events, excursions, repairs
+    double spanning = 0.0;    // groups spanning ranks: gathered, resolved, results sent back,
+                              // missed pairs joined
+    // ... of which: packing the bodies, the gather (to the neighbours, or from every rank; the
+    // groups found), resolving, results to their owners, missed pairs joined (with the
+    // excursions of the bodies sent)
+    double span_pack = 0.0, span_gather = 0.0, span_resolve = 0.0, span_results = 0.0;
+    double span_join = 0.0;
+  };
+
   class WindowDriver {
    public:
+    /// The time of every run() so far (reset by the caller when it likes).
+    DriverTimes times;
     /// Resolves the step over `bodies`.  `mine` gets the events of the groups this rank
     /// counts (see above) and, on rank 0, those of gathered groups.  The caller still checks
     /// the step's displacement budget.  foreign_pairs: candidate pairs of two foreign nodes
