@@ -580,7 +580,6 @@ void FixHardSphere::init()
   maxevents = maxevents_user > 0 ? maxevents_user : 1000 + 100 * atom->natoms;
   wsettings = HSGPU::Collide::WindowSettings();
   wsettings.nwindows = nwindows_user;
-  if (const char *e = std::getenv("HSGPU_WINDOW_TARGET")) wsettings.target_group = std::atol(e);
   if (nwindows_user == 1) {
     // One window per step: nothing is split, so it joins every candidate pair (its groups are
     // the connected components of the step's candidates), and where bounds are used (the
