@@ -504,6 +504,21 @@ TEST(FixHardSphereMPI, CommunicationOfTheStepIsCounted)
     EXPECT_GT(most, 0.0) << "some time in the step's collectives and ghost updates";
     std::printf("[ MPI      ] %d ranks: %.3g to %.3g ms per step in the communication\n", np,
                 least, most);
+    // Where the ranks' steps went: every part a pair "least to most", least <= most.
+    for (const char *line : {"a rank's search and windows", "of the groups spanning ranks"}) {
+      const size_t at = text.find(std::string("Fix hardsphere: ") + line);
+      ASSERT_NE(at, std::string::npos) << "no line '" << line << "' in the log";
+      const std::string rest = text.substr(at, text.find('\n', at) - at);
+      const std::regex pair("([0-9.eE+-]+) to ([0-9.eE+-]+)");
+      int parts = 0;
+      for (auto it = std::sregex_iterator(rest.begin(), rest.end(), pair);
+           it != std::sregex_iterator(); ++it, ++parts) {
+        const double lo = std::stod((*it)[1].str()), hi = std::stod((*it)[2].str());
+        EXPECT_GE(lo, 0.0) << rest;
+        EXPECT_LE(lo, hi) << rest;
+      }
+      EXPECT_EQ(parts, 5) << rest;    // five parts in each line
+    }
   }
   if (me == 0)
     std::printf("[ MPI      ] %d ranks, last step: %.0f collectives, %.0f ghost updates, %.0f "
