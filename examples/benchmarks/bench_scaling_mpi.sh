@@ -20,8 +20,11 @@
 # Columns: the fix's own time per step after the run's first (its run summary), LAMMPS's Loop
 # time per step, the efficiency of the fix's time (weak: t(P0) N(P) / (t(P) N(P0)) x P0 / P; strong:
 # t(P0) P0 / (t(P) P), P0 the first rank count), the atoms per step in groups that span ranks,
-# gathers per step, and the fix's communication of the last step: collective operations
-# (f_ID[24]), ghost updates (f_ID[25]) and bytes brought to all ranks (f_ID[26]).
+# gathers per step, the fix's communication of the last step: collective operations
+# (f_ID[24]), ghost updates (f_ID[25]) and bytes brought to all ranks (f_ID[26]), and from the
+# run's log (several ranks; 0 on one): the least and the most time per step a rank spent in the
+# fix's communication (waits for the other ranks included) and the most a rank spent on the
+# groups that span ranks (gathered, resolved, results sent back, missed pairs joined).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
@@ -55,7 +58,8 @@ echo
 
 median() { sort -g | awk '{v[NR] = $1} END {print (NR % 2) ? v[(NR + 1) / 2] : 0.5 * (v[NR / 2] + v[NR / 2 + 1])}'; }
 
-# One run: prints "fixstep loop spanning gathers collectives ghostupdates bytes".
+# One run: prints "fixstep loop spanning gathers collectives ghostupdates bytes commleast
+# commmost spanningmost".
 one() {
   local np=$1 input=$2 log=$3; shift 3
   (cd "$work" && mpirun -np "$np" --bind-to core "$lmp" -in "$input" -var plugin "$plugin" "$@" \
@@ -69,12 +73,18 @@ one() {
       s = $0; sub(/ gathers per step.*/, "", s); n = split(s, w, " "); gath = w[n]
     }
     /^comm: / {coll = $2; ghost = $3; bytes = $4}
-    END {printf "%g %g %g %g %g %g %g\n", fix, 1e3 * loop / steps, span, gath, coll, ghost, bytes}' \
+    /^Fix hardsphere: communication per step/ {
+      s = $0; sub(/ ms per step in it on a rank.*/, "", s); n = split(s, w, " ")
+      clo = w[n - 2]; chi = w[n]
+    }
+    /^Fix hardsphere: a rank.s search and windows/ {n = split($0, w, " "); shi = w[n]}
+    END {printf "%g %g %g %g %g %g %g %g %g %g\n", fix, 1e3 * loop / steps, span, gath, coll,
+                ghost, bytes, clo + 0, chi + 0, shi + 0}' \
     "$work/$log"
 }
 
-hdr="| configuration | N | ranks | fix step ms | Loop ms/step | efficiency (fix) | spanning atoms/step | gathers/step | collectives | ghost updates | bytes |"
-rul="|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+hdr="| configuration | N | ranks | fix step ms | Loop ms/step | efficiency (fix) | spanning atoms/step | gathers/step | collectives | ghost updates | bytes | communication ms/step (least-most rank) | spanning groups ms/step (most) |"
+rul="|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
 
 size_args() {    # case np -> prints "N args..."
   local c=$1 np=$2 total=$((per * $2))
@@ -107,14 +117,14 @@ table() {    # weak|strong cases...  Each row is printed as soon as it is measur
       for ((rep = 0; rep < reps; ++rep)); do
         one "$np" "in.${c#big_}" "log.$c.$np" "${a[@]:1}" >> "$work/rows.$c.$np"
       done
-      for k in 1 2 3 4 5 6 7; do m+=("$(awk -v k=$k '{print $k}' "$work/rows.$c.$np" | median)"); done
+      for k in 1 2 3 4 5 6 7 8 9 10; do m+=("$(awk -v k=$k '{print $k}' "$work/rows.$c.$np" | median)"); done
       [ -n "$base" ] || { base=${m[0]}; bn=$n; bp=$np; }
       awk -v lab="${c#big_}" -v n="$n" -v np="$np" -v kind="$kind" -v b="$base" -v bn="$bn" -v bp="$bp" \
         -v fix="${m[0]}" -v loop="${m[1]}" -v span="${m[2]}" -v gath="${m[3]}" -v coll="${m[4]}" \
-        -v ghost="${m[5]}" -v bytes="${m[6]}" 'BEGIN {
+        -v ghost="${m[5]}" -v bytes="${m[6]}" -v clo="${m[7]}" -v chi="${m[8]}" -v shi="${m[9]}" 'BEGIN {
           eff = (kind == "weak") ? (b / bn) / (fix / n) * bp / np : b * bp / (fix * np)
-          printf "| %s | %d | %d | %.2f | %.2f | %.0f%% | %.0f | %.2f | %.0f | %.0f | %.3g |\n",
-            lab, n, np, fix, loop, 100 * eff, span, gath, coll, ghost, bytes }'
+          printf "| %s | %d | %d | %.2f | %.2f | %.0f%% | %.0f | %.2f | %.0f | %.0f | %.3g | %.3g-%.3g | %.3g |\n",
+            lab, n, np, fix, loop, 100 * eff, span, gath, coll, ghost, bytes, clo, chi, shi }'
     done
   done
   echo
