@@ -580,6 +580,9 @@ void FixHardSphere::init()
   maxevents = maxevents_user > 0 ? maxevents_user : 1000 + 100 * atom->natoms;
   wsettings = HSGPU::Collide::WindowSettings();
   wsettings.nwindows = nwindows_user;
+  // Tuning aid: HSGPU_SPANNING_WIDE=1, every boundary atom to every neighbouring rank of the
+  // spanning groups at a gather (WindowSettings::gather_wide; no result bit depends on it).
+  wsettings.gather_wide = std::getenv("HSGPU_SPANNING_WIDE") != nullptr;
   if (nwindows_user == 1) {
     // One window per step: nothing is split, so it joins every candidate pair (its groups are
     // the connected components of the step's candidates), and where bounds are used (the

@@ -167,6 +167,7 @@ class FixHardSphere : public Fix {
     double collectives = 0.0, halos = 0.0, bytes = 0.0;    // communication (this rank's)
     double messages = 0.0;
     double t_comm = 0.0;    // seconds in the communication above (waits for other ranks too)
+    double forwards = 0.0;  // rounds of gathers passing entries on (WindowStats::forwards)
     bigint declined[5] = {0, 0, 0, 0, 0};                  // steps handed back, by ResidentOutcome
   } run_sum;
 

@@ -1212,6 +1212,7 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
   last_fallbacks = (double) stats.fallbacks;
   last_gathered = (double) stats.gathered;
   last_neighbour = (double) stats.neighbour;
+  run_sum.forwards += (double) stats.forwards;
 }
 
 bool FixHardSphere::resident_usable() const
@@ -1507,11 +1508,12 @@ void FixHardSphere::post_run()
     utils::logmesg(lmp,
                    "Fix hardsphere: communication per step: {:.4g} collective operations, {:.4g} "
                    "ghost updates, {:.4g} messages to neighbouring ranks ({:.3g} gathers with "
-                   "the neighbouring ranks only), {:.4g} kB received by all {} ranks together; "
-                   "{:.4g} to {:.4g} ms per step in it on a rank (waiting for the other ranks "
-                   "included)\n",
+                   "the neighbouring ranks only, {:.3g} rounds passing entries on), {:.4g} kB "
+                   "received by all {} ranks together; {:.4g} to {:.4g} ms per step in it on a "
+                   "rank (waiting for the other ranks included)\n",
                    r.collectives / n, r.halos / n, messages / n, r.neighbour / n,
-                   1e-3 * bytes / n, comm->nprocs, 1e3 * tcomm_least / n, 1e3 * tcomm_most / n);
+                   r.forwards / n, 1e-3 * bytes / n, comm->nprocs, 1e3 * tcomm_least / n,
+                   1e3 * tcomm_most / n);
   if (comm->nprocs > 1 && most(0) + most(1) + most(2) + most(3) > 0.0) {
     utils::logmesg(lmp,
                    "Fix hardsphere: a rank's search and windows, ms per step (least to most of "

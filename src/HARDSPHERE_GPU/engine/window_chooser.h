@@ -32,6 +32,10 @@ namespace Collide {
     // and it needs no bound test and no repair (the step's own check covers the pairs that
     // are not candidates).  Ignored elsewhere (the view's windows, the device).
     bool join_all = false;
+    // A gather to the neighbouring ranks sends every boundary body to every rank that owns a
+    // foreign node of this rank's boundary groups, not only to those of its own group's: more
+    // bytes, but a group over three or more ranks then needs no rounds passing entries on.
+    bool gather_wide = false;
   };
 
   /// The step's own bound rule (core/trajectory.h's drift_bound(): twice the drift, at least

@@ -346,7 +346,10 @@ namespace Collide {
     nsend.resize(ndest.size());
     for (auto &v : nsend) v.clear();
     size_t off = 0;
-    for (int b : bsent) {
+    if (gather_wide)    // every boundary body to every such rank
+      for (auto &v : nsend) v = send;
+    for (size_t k = 0; !gather_wide && k < bsent.size(); ++k) {
+      const int b = bsent[k];
       const size_t len = entry_length(&send[off], nentry);
       const int r = uf.find(b);
       auto it = std::lower_bound(rootrank.begin(), rootrank.end(), std::make_pair(r, -1));
@@ -598,6 +601,7 @@ namespace Collide {
       for (int round = 0;; ++round) {
         sparse = !incomplete();
         if (sparse || round == FORWARD_ROUNDS) break;
+        ++stats_forwards;
         std::vector<int> owners;
         sendto.clear();
         for (int g = 0; g < ngr; ++g) {
@@ -1272,6 +1276,8 @@ namespace Collide {
     stats = WindowStats();
     stats_gathers = 0;
     stats_neighbour = 0;
+    stats_forwards = 0;
+    gather_wide = s.gather_wide;
 
     // The view: local bodies [0, nb), foreign nodes [nb, nv); its candidate pairs with the
     // lower ID first.
@@ -1519,6 +1525,7 @@ namespace Collide {
     stats.windows = k;
     stats.gathers = stats_gathers;
     stats.neighbour = stats_neighbour;
+    stats.forwards = stats_forwards;
     // The step's figures over all ranks: two reductions per step.
     double l = (double) largest_all;
     ex.max(&l, 1);

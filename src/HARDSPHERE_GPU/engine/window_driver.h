@@ -162,6 +162,8 @@ namespace Collide {
     long gathered = 0;           // bodies gathered (of boundary_bodies), over the windows
     long neighbour = 0;          // of the gathers, those exchanged with the neighbouring ranks
                                  // only (the ranks of the foreign nodes in the groups)
+    long forwards = 0;           // rounds of such gathers passing entries on to a group's
+                                 // further ranks (a group over three ranks or more)
   };
 
   /// Where a rank's run() spent its time, seconds summed over the calls (wall clock; the
@@ -250,6 +252,8 @@ namespace Collide {
     bool results_missing = false;    // a result of a group resolved elsewhere did not arrive
     bool unknown_owner = false;    // a foreign node's owner rank is not known
     long stats_neighbour = 0;
+    long stats_forwards = 0;
+    bool gather_wide = false;    // WindowSettings::gather_wide of this run()
     int neighbour_skip = 0;       // gathers left that go to every rank at once
     int neighbour_backoff = 8;    // the next such skip
     std::vector<int> bsent;    // local bodies of the boundary groups of the last gather
