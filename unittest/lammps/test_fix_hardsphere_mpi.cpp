@@ -548,7 +548,8 @@ struct Spanning {
 // Atoms are placed one by one and their velocities set from their IDs (independent of the
 // decomposition).
 Spanning run_dense(MPI_Comm comm, const std::string &kind, const std::string &order, int steps,
-                   const std::string &cutoff, const std::string &spanning = "view")
+                   const std::string &cutoff, const std::string &spanning = "view",
+                   const std::string &logfile = "")
 {
   Lammps lmp(comm);
   const bool fluid = kind == "fluid";
@@ -587,6 +588,7 @@ Spanning run_dense(MPI_Comm comm, const std::string &kind, const std::string &or
                       spanning + " order " + order +
                       (kind == "rough" ? " friction 0.5 0.2 wall/friction zlo 0.4 0.0" : "")});
   const std::string ns = std::to_string(steps);
+  if (!logfile.empty()) lmp.commands({"log " + logfile});
   lmp.commands({"timestep 0.01", "thermo 0",
                 "fix avg all ave/time 1 " + ns + " " + ns +
                     " f_hs[9] f_hs[11] f_hs[16] f_hs[27] f_hs[28] f_hs[29] f_hs[30]",
@@ -688,6 +690,50 @@ TEST(FixHardSphereMPI, SpanningGroupsGatheredFromTheNeighbouringRanks)
 {
   compare_neighbour_gather("fluid", 100);
   compare_neighbour_gather("rough", 300);
+}
+
+// HSGPU_SPANNING_WIDE=1: every boundary atom goes to every rank of the spanning groups' ghosts
+// at a gather, so no round passes entries on; the same bits as the gather that passes them on.
+TEST(FixHardSphereMPI, WideGatherNeedsNoRoundsPassingEntriesOn)
+{
+  int me = 0, np = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  if (np < 3) GTEST_SKIP() << "a gather to the neighbouring ranks takes three ranks or more";
+  const char *was = std::getenv("HSGPU_SPANNING_WIDE");
+  const std::string kept = was ? was : "";
+  const std::string tag = "_np" + std::to_string(np) + ".log";
+  unsetenv("HSGPU_SPANNING_WIDE");
+  const Spanning narrow =
+      run_dense(MPI_COMM_WORLD, "fluid", "parallel", 100, "2.5", "gather", "hs_narrow" + tag);
+  setenv("HSGPU_SPANNING_WIDE", "1", 1);
+  const Spanning wide =
+      run_dense(MPI_COMM_WORLD, "fluid", "parallel", 100, "2.5", "gather", "hs_wide" + tag);
+  if (was)
+    setenv("HSGPU_SPANNING_WIDE", kept.c_str(), 1);
+  else
+    unsetenv("HSGPU_SPANNING_WIDE");
+  EXPECT_EQ(max_abs_diff(wide.x, narrow.x), 0.0);
+  EXPECT_EQ(max_abs_diff(wide.v, narrow.v), 0.0);
+  EXPECT_EQ(wide.collisions, narrow.collisions);
+  EXPECT_GT(narrow.neighbour, 0.5) << "gathers to the neighbouring ranks per step";
+  EXPECT_GT(wide.neighbour, 0.5) << "gathers to the neighbouring ranks per step";
+  if (me == 0) {
+    auto rounds = [](const std::string &log) {
+      const std::string text = hsgpu_test::file_text(log);
+      std::smatch m;
+      if (!std::regex_search(text, m, std::regex("only, ([0-9.eE+-]+) rounds passing entries on")))
+        return -1.0;
+      return std::stod(m[1].str());
+    };
+    const double rn = rounds("hs_narrow" + tag), rw = rounds("hs_wide" + tag);
+    EXPECT_GT(rn, 0.0) << "rounds passing entries on per step (a group over three ranks or more)";
+    EXPECT_EQ(rw, 0.0) << "rounds passing entries on per step with the wide gather";
+    std::printf("[ MPI      ] %d ranks, fluid: %.3g rounds passing entries on per step, 0 with "
+                "HSGPU_SPANNING_WIDE (%.3g); the same %.0f collisions\n",
+                np, rn, rw, wide.collisions);
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
 }
 
 // With the ghost cutoff the fluid benchmark uses (2.5), a third or more of the spanning groups'
