@@ -715,6 +715,18 @@ namespace Collide {
       }
     }
 
+    /// The excursion of bd (a tile's copy of bodies[b]) noted at time t, and what it changed
+    /// written back to bodies[b].
+    __device__ __forceinline__ void excursion_at(Body &bd, double t, Body *bodies, int b)
+    {
+      const double exc2 = bd.exc2, wexc2 = bd.wexc2;
+      double x[3];
+      drift_position(bd, t, x);
+      note_excursion(bd, x);
+      if (bd.exc2 != exc2) bodies[b].exc2 = bd.exc2;
+      if (bd.wexc2 != wexc2) bodies[b].wexc2 = bd.wexc2;
+    }
+
     // Launch: one thread per body (n >= 1).  Excursion from the window start point at t1;
     // s->missed zeroed for missed_kernel.
     __global__ void __launch_bounds__(TILE)
@@ -726,12 +738,7 @@ namespace Collide {
       if (b >= n) return;
       if (b == 0) s->missed = 0;
       Body &bd = tile[threadIdx.x];
-      const double exc2 = bd.exc2, wexc2 = bd.wexc2;
-      double x[3];
-      drift_position(bd, t1, x);
-      note_excursion(bd, x);
-      if (bd.exc2 != exc2) bodies[b].exc2 = bd.exc2;
-      if (bd.wexc2 != wexc2) bodies[b].wexc2 = bd.wexc2;
+      excursion_at(bd, t1, bodies, b);
       lexc[b] = sqrt(bd.wexc2);
     }
 
@@ -783,12 +790,7 @@ namespace Collide {
       ExcursionSum mine{0.0, 0, 0.0};
       if (b < n) {
         Body &bd = tile[threadIdx.x];
-        const double exc2 = bd.exc2, wexc2 = bd.wexc2;
-        double x[3];
-        drift_position(bd, dt, x);
-        note_excursion(bd, x);
-        if (bd.exc2 != exc2) bodies[b].exc2 = bd.exc2;
-        if (bd.wexc2 != wexc2) bodies[b].wexc2 = bd.wexc2;
+        excursion_at(bd, dt, bodies, b);
         const double e = sqrt(bd.exc2);
         exc[b] = e;
         const double *v = bd.v;
