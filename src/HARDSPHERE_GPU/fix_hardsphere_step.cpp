@@ -1456,26 +1456,23 @@ void FixHardSphere::post_run()
   double mine[2] = {r.bytes, r.messages}, all[2] = {0.0, 0.0};
   if (comm->nprocs > 1) MPI_Allreduce(mine, all, 2, MPI_DOUBLE, MPI_SUM, world);
   const double bytes = all[0], messages = all[1];
-  // The seconds in the step's communication: the least and the most of any rank.
-  double tc[2] = {-r.t_comm, r.t_comm}, tcx[2] = {0.0, 0.0};
-  if (comm->nprocs > 1) MPI_Allreduce(tc, tcx, 2, MPI_DOUBLE, MPI_MAX, world);
-  const double tcomm_least = -tcx[0], tcomm_most = tcx[1];
-  // Where the windows' time went on the ranks: the least and the most of any rank per part.
+  const double n = (double) r.steps;
+  // Where a rank's time went, the least and the most of any rank per part, in ms per step:
+  // the windows' parts, the search, the spanning groups' parts, and the communication.
   const HSGPU::Collide::DriverTimes &dtm = driver.times;
-  const double tsearch = t_search + r.t_search;
-  constexpr int NT = 10;
-  const double tmine[NT] = {dtm.edges,       dtm.groups,      dtm.local,
-                            dtm.spanning,    tsearch,         dtm.span_pack,
+  constexpr int NT = 11;
+  const double tmine[NT] = {dtm.edges,       dtm.groups,       dtm.local,
+                            dtm.spanning,    t_search + r.t_search, dtm.span_pack,
                             dtm.span_gather, dtm.span_resolve, dtm.span_results,
-                            dtm.span_join};
+                            dtm.span_join,   r.t_comm};
   double tw[2 * NT], twx[2 * NT] = {0.0};
   for (int k = 0; k < NT; ++k) {
     tw[k] = -tmine[k];    // the least, as minus the most of the negatives
     tw[NT + k] = tmine[k];
   }
   if (comm->nprocs > 1) MPI_Allreduce(tw, twx, 2 * NT, MPI_DOUBLE, MPI_MAX, world);
-  auto least = [&](int k) { return -1e3 * twx[k] / (double) r.steps; };
-  auto most = [&](int k) { return 1e3 * twx[NT + k] / (double) r.steps; };
+  auto least = [&](int k) { return -1e3 * twx[k] / n; };
+  auto most = [&](int k) { return 1e3 * twx[NT + k] / n; };
   // The gathered step's copies of x, v, f to rank 0's device: the slowest rank's time copying,
   // and the longest wait of a rank for the others.
   double tputs[2] = {gath.t_put, gath.t_wait}, tmax[2] = {0.0, 0.0};
@@ -1487,7 +1484,6 @@ void FixHardSphere::post_run()
                    "Fix hardsphere: x, v and f copied by each rank to rank 0's device: {:.4g} s "
                    "copying and {:.4g} s waiting for the other ranks (the most of any rank)\n",
                    tmax[0], tmax[1]);
-  const double n = (double) r.steps;
   utils::logmesg(lmp,
                  "Fix hardsphere ({} order, {} backend): {} steps, {:.6g} collisions and {:.6g} "
                  "events per "
@@ -1512,8 +1508,7 @@ void FixHardSphere::post_run()
                    "received by all {} ranks together; {:.4g} to {:.4g} ms per step in it on a "
                    "rank (waiting for the other ranks included)\n",
                    r.collectives / n, r.halos / n, messages / n, r.neighbour / n,
-                   r.forwards / n, 1e-3 * bytes / n, comm->nprocs, 1e3 * tcomm_least / n,
-                   1e3 * tcomm_most / n);
+                   r.forwards / n, 1e-3 * bytes / n, comm->nprocs, least(10), most(10));
   if (comm->nprocs > 1 && most(0) + most(1) + most(2) + most(3) > 0.0) {
     utils::logmesg(lmp,
                    "Fix hardsphere: a rank's search and windows, ms per step (least to most of "

@@ -333,6 +333,16 @@ namespace Collide {
       int *cstart() const { return d_cstart.as<int>(); }
       int *cend() const { return d_cstart.as<int>() + most_cells(n); }
 
+      /// HSGPU_RESIDENT_PROFILE: 0 unset, 2 where it is "2", else 1.
+      static int profile_mode()
+      {
+        static const int mode = [] {
+          const char *e = std::getenv("HSGPU_RESIDENT_PROFILE");
+          return !e ? 0 : std::strcmp(e, "2") == 0 ? 2 : 1;
+        }();
+        return mode;
+      }
+
       /* Debugging and tuning aid (HSGPU_RESIDENT_PROFILE=1): the stream is waited for at the
          end of every phase of a step and the seconds are summed per phase; the sums per step
          go to stderr when the object is destroyed.  Off, mark() costs nothing. */
@@ -357,12 +367,11 @@ namespace Collide {
            first step of the object is left out; so are steps that return early (declines). */
         struct Timeline {
           enum Tag { phase_end, wait_begin, wait_end, start };
-          const char *env = std::getenv("HSGPU_RESIDENT_PROFILE");
-          bool on = env && std::strcmp(env, "2") == 0;
+          bool on = profile_mode() == 2;
           std::vector<cudaEvent_t> ev;
           std::vector<std::pair<int, int>> tag;    // (Tag, phase)
           size_t used = 0;
-          double sec[16] = {};
+          double sec[count] = {};
           double idle = 0.0, span = 0.0, wall = 0.0;
           long waits = 0, steps = 0, events = 0;
           Clock::time_point t0;
@@ -384,7 +393,7 @@ namespace Collide {
             tag[used] = {t, phase};
             cuda_check(cudaEventRecord(ev[used++], s), "cudaEventRecord");
           }
-          /// After the step's last wait: the events of the step summed (where `count` is set).
+          /// After the step's last wait: the events of the step summed (where `counted`).
           void end_step(bool counted)
           {
             if (!on || used < 2) return;
@@ -427,8 +436,7 @@ namespace Collide {
           }
         };
 
-        const char *env = std::getenv("HSGPU_RESIDENT_PROFILE");
-        bool on = env && std::strcmp(env, "2") != 0;    // waits after every phase
+        bool on = profile_mode() == 1;    // waits after every phase
         Timeline line;    // HSGPU_RESIDENT_PROFILE=2: times by events, no waits
         double sec[count] = {};
         long steps = 0, tries = 0, passes = 0, whole = 0;
