@@ -1460,11 +1460,12 @@ void FixHardSphere::post_run()
   // Where a rank's time went, the least and the most of any rank per part, in ms per step:
   // the windows' parts, the search, the spanning groups' parts, and the communication.
   const HSGPU::Collide::DriverTimes &dtm = driver.times;
-  constexpr int NT = 11;
+  constexpr int NT = 13;
   const double tmine[NT] = {dtm.edges,       dtm.groups,       dtm.local,
                             dtm.spanning,    t_search + r.t_search, dtm.span_pack,
                             dtm.span_gather, dtm.span_resolve, dtm.span_results,
-                            dtm.span_join,   r.t_comm};
+                            dtm.span_join,   r.t_comm,         dtm.gather_messages,
+                            dtm.gather_unpack};
   double tw[2 * NT], twx[2 * NT] = {0.0};
   for (int k = 0; k < NT; ++k) {
     tw[k] = -tmine[k];    // the least, as minus the most of the negatives
@@ -1521,9 +1522,11 @@ void FixHardSphere::post_run()
     utils::logmesg(lmp,
                    "Fix hardsphere: of the groups spanning ranks, ms per step: packing {:.4g} to "
                    "{:.4g}, the gather {:.4g} to {:.4g}, resolving {:.4g} to {:.4g}, results to "
-                   "their owners {:.4g} to {:.4g}, missed pairs joined {:.4g} to {:.4g}\n",
+                   "their owners {:.4g} to {:.4g}, missed pairs joined {:.4g} to {:.4g}; of the "
+                   "gather: messages and reductions (waits included) {:.4g} to {:.4g}, unpacking "
+                   "and grouping the entries {:.4g} to {:.4g}\n",
                    least(5), most(5), least(6), most(6), least(7), most(7), least(8), most(8),
-                   least(9), most(9));
+                   least(9), most(9), least(11), most(11), least(12), most(12));
   }
   if (resident) {
     using HSGPU::Collide::ResidentOutcome;

@@ -22,6 +22,14 @@ namespace Collide {
       return s;
     }
 
+    /// Adds the seconds of its scope to `sum` (a part of a DriverTimes part).
+    struct ScopeTime {
+      double &sum;
+      std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
+      explicit ScopeTime(double &s) : sum(s) {}
+      ~ScopeTime() { sum += lap(t0); }
+    };
+
     /// Relative margin on contact distances for round-off in the join and check tests.
     constexpr double MARGIN = 1e-9;
     /// Doubles per body in the boundary exchange (pack_body; 3 more with friction: the spin),
@@ -363,7 +371,10 @@ namespace Collide {
     unknown_owner = false;
     for (const auto &rr : rootrank) unknown_owner |= rr.second < 0;
     std::vector<double> got;
-    if (!ex.to_ranks(ndest, nsend, got)) return false;
+    {
+      ScopeTime st(times.gather_messages);
+      if (!ex.to_ranks(ndest, nsend, got)) return false;
+    }
     recv = send;
     recv.insert(recv.end(), got.begin(), got.end());
     mine_off = 0;
@@ -577,8 +588,11 @@ namespace Collide {
     }
     const bool tried = sparse;
     if (sparse) {
-      unpack_gathered(mine_off, true);
-      group_gathered(ngr);
+      {
+        ScopeTime st(times.gather_unpack);
+        unpack_gathered(mine_off, true);
+        group_gathered(ngr);
+      }
       // Whether some rank lacks a partner of a body in a group of its own (a foreign node
       // whose owner is not known counts as such).
       auto incomplete = [&]() {
@@ -591,6 +605,7 @@ namespace Collide {
           }
           if (here && missing) c[0] = 1;
         }
+        ScopeTime st(times.gather_messages);
         ex.sum(c, 1);
         return c[0] > 0;
       };
@@ -628,8 +643,12 @@ namespace Collide {
           o.insert(o.end(), h, h + entry_length(h, nbody));
         });
         std::vector<double> got;
-        ex.to_ranks(ndest, nsend, got);
+        {
+          ScopeTime st(times.gather_messages);
+          ex.to_ranks(ndest, nsend, got);
+        }
         if (!got.empty()) {
+          ScopeTime st(times.gather_unpack);
           recv.insert(recv.end(), got.begin(), got.end());
           unpack_gathered(mine_off, true);
           group_gathered(ngr);
@@ -643,13 +662,17 @@ namespace Collide {
     if (sparse) {
       ++stats_neighbour;
     } else {
-      ex.allgather(send, recv, mine_off);
+      {
+        ScopeTime st(times.gather_messages);
+        ex.allgather(send, recv, mine_off);
+      }
       gbodies.clear();
       gedges.clear();
       if (recv.empty()) {
         times.span_gather += lap(clock);
         return;
       }
+      ScopeTime st(times.gather_unpack);
       unpack_gathered(mine_off, false);
       group_gathered(ngr);
     }

@@ -179,6 +179,9 @@ namespace Collide {
     // excursions of the bodies sent)
     double span_pack = 0.0, span_gather = 0.0, span_resolve = 0.0, span_results = 0.0;
     double span_join = 0.0;
+    // ... and of the gather: its messages and reductions (waits included), and unpacking the
+    // entries that came and finding their groups (the rest: choosing what goes where)
+    double gather_messages = 0.0, gather_unpack = 0.0;
   };
 
   class WindowDriver {
