@@ -437,10 +437,11 @@ namespace Collide {
     const int ng = (int) order.size();
     gentry.resize(ng);
     for (int k = 0; k < ng; ++k) gentry[k] = order[k].second;
-    gbodies.resize(ng);
+    // The bodies themselves only once the gather is complete (unpack_bodies()): the rounds
+    // passing entries on need the IDs, partners and owners alone.
+    gbodies.clear();
     gmine.assign(ng, -1);
     gmissing.assign(ng, 0);
-    for (int k = 0; k < ng; ++k) unpack_body(&recv[order[k].second], gbodies[k], spin);
     // ID -> index: open addressing (IDs are positive), twice as many slots as bodies.
     size_t slots = 16;
     while (slots < 2 * (size_t) ng) slots <<= 1;
@@ -448,9 +449,9 @@ namespace Collide {
     idval.resize(slots);
     const size_t mask = slots - 1;
     for (int k = 0; k < ng; ++k) {
-      size_t h = id_slot(gbodies[k].id, mask);
+      size_t h = id_slot(order[k].first, mask);
       while (idkey[h] != 0) h = (h + 1) & mask;
-      idkey[h] = gbodies[k].id;
+      idkey[h] = order[k].first;
       idval[h] = k;
     }
     {
@@ -486,6 +487,77 @@ namespace Collide {
           if (gathered_index((long) h[nbody + NHEAD + (size_t) NPARTNER * nhigh + q]) < 0)
             gmissing[k] = 1;
     }
+  }
+
+  /* The entries of recv from offset `from` on (a round passing entries on), added to the
+     last unpack_gathered()'s index after its bodies, not in ID order (the rounds need the IDs,
+     partners and owners alone; unpack_gathered() again puts them in order): entries of bodies
+     not yet here, the edges they bring, and the partners that went missing. */
+  void WindowDriver::unpack_more(size_t from)
+  {
+    const int nbody = body_values(spin);
+    const int old_ng = (int) gentry.size();
+    for (size_t off = from; off < recv.size(); off += entry_length(&recv[off], nbody)) {
+      const long id = (long) recv[off + ID_AT];
+      if (gathered_index(id) >= 0) continue;
+      const int k = (int) gentry.size();
+      gentry.push_back(off);
+      gmine.push_back(-1);
+      gmissing.push_back(0);
+      if (2 * gentry.size() > idkey.size()) {    // twice as many slots as bodies
+        const size_t slots = 2 * idkey.size();
+        idkey.assign(slots, 0);
+        idval.resize(slots);
+        for (int m = 0; m < k; ++m) {
+          const long mid = (long) recv[gentry[m] + ID_AT];
+          size_t h = id_slot(mid, slots - 1);
+          while (idkey[h] != 0) h = (h + 1) & (slots - 1);
+          idkey[h] = mid;
+          idval[h] = m;
+        }
+      }
+      const size_t mask = idkey.size() - 1;
+      size_t h = id_slot(id, mask);
+      while (idkey[h] != 0) h = (h + 1) & mask;
+      idkey[h] = id;
+      idval[h] = k;
+    }
+    const int ng = (int) gentry.size();
+    // An edge is its lower-ID body's (in that body's list of higher partners): the new bodies'
+    // edges to any partner here, and the earlier bodies' edges to the new ones.
+    for (int k = 0; k < ng; ++k) {
+      if (k < old_ng && !gmissing[k]) continue;    // every partner was here already
+      const double *h = &recv[gentry[k]];
+      const int nhigh = (int) h[nbody], nlow = (int) h[nbody + 1];
+      bool missing = false;
+      for (int q = 0; q < nhigh; ++q) {
+        const double *o = h + nbody + NHEAD + (size_t) NPARTNER * q;
+        const int j = gathered_index((long) o[0]);
+        if (j < 0) {
+          missing = true;
+          continue;
+        }
+        if (k < old_ng && j < old_ng) continue;    // that edge is there already
+        Edge e;
+        e.i = k;
+        e.j = j;
+        for (int d = 0; d < 3; ++d) e.shift[d] = o[1 + d];
+        gedges.push_back(e);
+      }
+      for (int q = 0; q < nlow && !missing; ++q)
+        if (gathered_index((long) h[nbody + NHEAD + (size_t) NPARTNER * nhigh + q]) < 0)
+          missing = true;
+      gmissing[k] = missing ? 1 : 0;
+    }
+  }
+
+  /* The gathered bodies (gbodies) from their entries, in the order of the last
+     unpack_gathered(). */
+  void WindowDriver::unpack_bodies()
+  {
+    const int ng = (int) gentry.size();
+    gbodies.resize(ng);
+    for (int k = 0; k < ng; ++k) unpack_body(&recv[gentry[k]], gbodies[k], spin);
   }
 
   /* The boundary groups of the window (bodies in groups that hold a foreign node, or, over
@@ -568,9 +640,9 @@ namespace Collide {
     long mine_off = 0;
     auto group_gathered = [&](int &ngr) {
       UnionFind guf;
-      guf.reset((int) gbodies.size());
+      guf.reset((int) gentry.size());
       for (const Edge &e : gedges) guf.unite(e.i, e.j);
-      group_by_root(guf, (int) gbodies.size(), nullptr, gstart2, gmembers2, fill, ngr);
+      group_by_root(guf, (int) gentry.size(), nullptr, gstart2, gmembers2, fill, ngr);
     };
     int ngr = 0;
     // To the neighbouring ranks first (more than two ranks: on two, that is everyone), if
@@ -613,6 +685,7 @@ namespace Collide {
       // rank passes the entries it holds of such a group of its own on to the group's other
       // ranks (the owners of its bodies), for at most FORWARD_ROUNDS rounds.
       constexpr int FORWARD_ROUNDS = 3;
+      bool passed_on = false;
       for (int round = 0;; ++round) {
         sparse = !incomplete();
         if (sparse || round == FORWARD_ROUNDS) break;
@@ -649,10 +722,18 @@ namespace Collide {
         }
         if (!got.empty()) {
           ScopeTime st(times.gather_unpack);
+          const size_t from = recv.size();
           recv.insert(recv.end(), got.begin(), got.end());
-          unpack_gathered(mine_off, true);
+          unpack_more(from);
           group_gathered(ngr);
+          passed_on = true;
         }
+      }
+      if (sparse && passed_on) {
+        // In ID order again (each group's first member its lowest-ID body, on every rank).
+        ScopeTime st(times.gather_unpack);
+        unpack_gathered(mine_off, true);
+        group_gathered(ngr);
       }
     }
     if (tried) {
@@ -675,6 +756,10 @@ namespace Collide {
       ScopeTime st(times.gather_unpack);
       unpack_gathered(mine_off, false);
       group_gathered(ngr);
+    }
+    {
+      ScopeTime st(times.gather_unpack);
+      unpack_bodies();
     }
     times.span_gather += lap(clock);
     const int ng = (int) gbodies.size();

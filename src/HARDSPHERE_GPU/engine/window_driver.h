@@ -318,6 +318,8 @@ namespace Collide {
     bool neighbour_gather(const std::vector<ForeignNode> &foreign, int nb, int nentry,
                           Exchange &ex, long &mine_off);
     void unpack_gathered(long mine_off, bool sparse);
+    void unpack_more(size_t from);
+    void unpack_bodies();
     int gathered_index(long id) const;
     int gathered_owner(int k) const;
     void fill_destinations(const std::function<void(std::vector<double> &, int)> &pack);

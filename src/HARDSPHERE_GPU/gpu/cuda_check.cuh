@@ -18,8 +18,13 @@
 
 #include <cuda_runtime.h>
 
+#include <unistd.h>
+
 #include <cstddef>
+#include <cstdint>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace HSGPU {
 namespace GPU {
@@ -92,12 +97,33 @@ namespace GPU {
     template <class T> T *as() const { return static_cast<T *>(ptr); }
   };
 
+  /// The pages [first, last) that the process's HostRangeLocks hold (the driver locks whole
+  /// pages and refuses a range that shares one with a locked range).
+  inline std::vector<std::pair<uintptr_t, uintptr_t>> &locked_pages()
+  {
+    static std::vector<std::pair<uintptr_t, uintptr_t>> held;
+    return held;
+  }
+
+  /// The whole pages that [q, q + n) touches.
+  inline std::pair<uintptr_t, uintptr_t> page_span(const void *q, size_t n)
+  {
+    static const uintptr_t page = [] {
+      const long s = sysconf(_SC_PAGESIZE);
+      return (uintptr_t) (s > 0 ? s : 4096);
+    }();
+    const uintptr_t a = reinterpret_cast<uintptr_t>(q);
+    return {a / page * page, (a + n + page - 1) / page * page};
+  }
+
   /// A caller's host range page-locked in place (cudaHostRegister), so that copies from it
   /// move at the pinned rate.  keep() holds [q, q + n): a locked range that covers it stays;
   /// else it is released and [q, q + max(n, room)) locked (room: what the caller's array holds,
   /// so that a later, longer range in the same array needs no new lock: registering costs
-  /// about as much as copying).  Where the driver refuses (memory limits, an overlap with
-  /// another locked range) `locking` turns false and the copies stay pageable: slower, the same
+  /// about as much as copying).  A range that shares a page with one another HostRangeLock
+  /// holds (small arrays side by side on the heap) is not registered (the driver would refuse
+  /// it): its copies stay pageable, as do all later ones where the driver refuses a range
+  /// (memory limits, a range locked by other code): `locking` turns false.  Slower, the same
   /// bytes.  Released by its owner.
   struct HostRangeLock {
     void *p = nullptr;
@@ -110,6 +136,9 @@ namespace GPU {
       release();
       if (!locking || !q || n == 0) return;
       const size_t want = room > n ? room : n;
+      const auto span = page_span(q, want);
+      for (const auto &h : locked_pages())
+        if (span.first < h.second && h.first < span.second) return;
       if (cudaHostRegister(const_cast<void *>(q), want, cudaHostRegisterDefault) != cudaSuccess) {
         (void) cudaGetLastError();
         locking = false;
@@ -117,11 +146,21 @@ namespace GPU {
       }
       p = const_cast<void *>(q);
       bytes = want;
+      locked_pages().push_back(span);
     }
 
     void release()
     {
-      if (p) cudaHostUnregister(p);
+      if (p) {
+        cudaHostUnregister(p);
+        auto &held = locked_pages();
+        const auto span = page_span(p, bytes);
+        for (size_t k = 0; k < held.size(); ++k)
+          if (held[k] == span) {
+            held.erase(held.begin() + (long) k);
+            break;
+          }
+      }
       (void) cudaGetLastError();
       p = nullptr;
       bytes = 0;
