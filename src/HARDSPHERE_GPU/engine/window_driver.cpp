@@ -421,9 +421,8 @@ namespace Collide {
   void WindowDriver::unpack_gathered(long mine_off, bool sparse)
   {
     const int nbody = body_values(spin);
-    gbodies.clear();
-    gedges.clear();
-    std::vector<std::pair<long, size_t>> order;
+    std::vector<std::pair<long, size_t>> &order = gorder;
+    order.clear();
     for (size_t off = 0; off < recv.size(); off += entry_length(&recv[off], nbody))
       order.emplace_back((long) recv[off + ID_AT], off);
     std::sort(order.begin(), order.end());
@@ -434,6 +433,32 @@ namespace Collide {
                               return a.first == b.first;
                             }),
                 order.end());
+    index_gathered(mine_off, sparse);
+  }
+
+  /* After rounds passing entries on (unpack_more()): the index in ID order again, as
+     unpack_gathered() would make it from the whole of recv, without walking and sorting all
+     of it: the first unpack's bodies are in ID order, the ones added since are sorted and
+     merged in. */
+  void WindowDriver::reorder_gathered(long mine_off, size_t ng0)
+  {
+    std::vector<std::pair<long, size_t>> &order = gorder;
+    order.clear();
+    for (size_t k = 0; k < gentry.size(); ++k)
+      order.emplace_back((long) recv[gentry[k] + ID_AT], gentry[k]);
+    std::sort(order.begin() + (long) ng0, order.end());
+    std::inplace_merge(order.begin(), order.begin() + (long) ng0, order.end());
+    index_gathered(mine_off, true);
+  }
+
+  /* The index of the gathered entries of gorder (in ID order, one per ID; see
+     unpack_gathered()). */
+  void WindowDriver::index_gathered(long mine_off, bool sparse)
+  {
+    const int nbody = body_values(spin);
+    const std::vector<std::pair<long, size_t>> &order = gorder;
+    gbodies.clear();
+    gedges.clear();
     const int ng = (int) order.size();
     gentry.resize(ng);
     for (int k = 0; k < ng; ++k) gentry[k] = order[k].second;
@@ -686,6 +711,7 @@ namespace Collide {
       // ranks (the owners of its bodies), for at most FORWARD_ROUNDS rounds.
       constexpr int FORWARD_ROUNDS = 3;
       bool passed_on = false;
+      const size_t first_ng = gentry.size();    // in ID order; unpack_more() adds after them
       for (int round = 0;; ++round) {
         sparse = !incomplete();
         if (sparse || round == FORWARD_ROUNDS) break;
@@ -732,7 +758,7 @@ namespace Collide {
       if (sparse && passed_on) {
         // In ID order again (each group's first member its lowest-ID body, on every rank).
         ScopeTime st(times.gather_unpack);
-        unpack_gathered(mine_off, true);
+        reorder_gathered(mine_off, first_ng);
         group_gathered(ngr);
       }
     }

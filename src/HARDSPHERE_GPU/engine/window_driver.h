@@ -249,6 +249,7 @@ namespace Collide {
     std::vector<std::vector<double>> nsend;
     std::vector<char> gmissing;
     std::vector<size_t> gentry;    // per gathered body: its entry's offset in recv
+    std::vector<std::pair<long, size_t>> gorder;    // (ID, entry offset) in ID order
     std::vector<long> idkey;       // gathered bodies by ID (open addressing; 0: empty)
     std::vector<int> idval;
     bool virial_all = false;         // some rank tallies per-atom virials this step
@@ -319,6 +320,8 @@ namespace Collide {
                           Exchange &ex, long &mine_off);
     void unpack_gathered(long mine_off, bool sparse);
     void unpack_more(size_t from);
+    void reorder_gathered(long mine_off, size_t ng0);
+    void index_gathered(long mine_off, bool sparse);
     void unpack_bodies();
     int gathered_index(long id) const;
     int gathered_owner(int k) const;
