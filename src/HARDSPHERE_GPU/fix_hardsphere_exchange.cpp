@@ -11,6 +11,7 @@
 #include "mpi_allgather.h"
 
 #include <algorithm>
+#include <array>
 #include <mpi.h>
 
 using namespace LAMMPS_NS;
@@ -127,7 +128,10 @@ bool LammpsExchange::to_ranks(const std::vector<int> &dest,
       fix->error->one(FLERR, "Fix hardsphere: too many atoms in groups that span ranks");
     MPI_Issend(send[k].data(), (int) send[k].size(), MPI_DOUBLE, dest[k], TAG, p2p, &sreq[k]);
   }
-  std::vector<std::pair<int, std::vector<double>>> got;
+  // The messages side by side in `inbox` (kept between calls), (source, offset, length) each.
+  std::vector<std::array<long, 3>> &got = inbox_parts;
+  got.clear();
+  size_t used = 0;
   MPI_Request barrier = MPI_REQUEST_NULL;
   bool in_barrier = false;
   while (true) {
@@ -137,9 +141,11 @@ bool LammpsExchange::to_ranks(const std::vector<int> &dest,
     if (flag) {
       int count = 0;
       MPI_Get_count(&st, MPI_DOUBLE, &count);
-      got.emplace_back(st.MPI_SOURCE, std::vector<double>(count));
-      MPI_Recv(got.back().second.data(), count, MPI_DOUBLE, st.MPI_SOURCE, TAG, p2p,
+      if (inbox.size() < used + (size_t) count) inbox.resize(used + (size_t) count);
+      got.push_back({(long) st.MPI_SOURCE, (long) used, (long) count});
+      MPI_Recv(inbox.data() + used, count, MPI_DOUBLE, st.MPI_SOURCE, TAG, p2p,
                MPI_STATUS_IGNORE);
+      used += (size_t) count;
       continue;
     }
     int done = 0;
@@ -155,14 +161,14 @@ bool LammpsExchange::to_ranks(const std::vector<int> &dest,
     }
   }
   fix->comm_step.seconds += MPI_Wtime() - t0;
+  // In the order of the sources (each sends one message per call).
   std::sort(got.begin(), got.end(),
-            [](const std::pair<int, std::vector<double>> &a,
-               const std::pair<int, std::vector<double>> &b) { return a.first < b.first; });
+            [](const std::array<long, 3> &a, const std::array<long, 3> &b) { return a[0] < b[0]; });
   recv.clear();
   double bytes = 0.0;
   for (const auto &g : got) {
-    recv.insert(recv.end(), g.second.begin(), g.second.end());
-    bytes += (double) g.second.size() * sizeof(double);
+    recv.insert(recv.end(), inbox.begin() + g[1], inbox.begin() + g[1] + g[2]);
+    bytes += (double) g[2] * sizeof(double);
   }
   fix->count_messages((double) got.size(), bytes);
   fix->count_collective(0.0);

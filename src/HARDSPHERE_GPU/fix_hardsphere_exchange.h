@@ -11,6 +11,9 @@
 
 #include <mpi.h>
 
+#include <array>
+#include <vector>
+
 namespace LAMMPS_NS {
 
 class FixHardSphere;
@@ -37,6 +40,8 @@ class LammpsExchange : public HSGPU::Collide::Exchange {
   FixHardSphere *fix;
   MPI_Comm p2p;    // a copy of the world for to_ranks()'s messages, apart from LAMMPS's own
   long p2p_calls = 0;
+  std::vector<double> inbox;                   // to_ranks(): the messages as they came
+  std::vector<std::array<long, 3>> inbox_parts;    // and their (source, offset, length)
 };
 
 }    // namespace LAMMPS_NS

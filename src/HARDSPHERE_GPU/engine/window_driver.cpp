@@ -179,7 +179,7 @@ namespace Collide {
     /// counting sort of the nodes by representative.  Returns the largest group's size.
     long group_by_root(UnionFind &uf, int n, const std::vector<char> *excluded,
                        std::vector<int> &start, std::vector<int> &members, std::vector<int> &fill,
-                       int &ngroups)
+                       int &ngroups, std::vector<int> &pos)
     {
       fill.assign(n, -1);    // root -> group
       ngroups = 0;
@@ -199,7 +199,7 @@ namespace Collide {
         start[g + 1] += start[g];
       }
       members.resize(start[ngroups]);
-      std::vector<int> pos(start.begin(), start.end() - 1);
+      pos.assign(start.begin(), start.end() - 1);
       for (int b = 0; b < n; ++b) {
         const int r = uf.find(b);
         if (fill[r] >= 0) members[pos[fill[r]]++] = b;
@@ -313,7 +313,7 @@ namespace Collide {
   {
     isb.assign(nb + nf, 0);
     for (int k = 0; k < nf; ++k) isb[uf.find(nb + k)] = 1;
-    group_by_root(uf, nb, &isb, gstart, gmembers, fill, nlocal_groups);
+    group_by_root(uf, nb, &isb, gstart, gmembers, fill, nlocal_groups, bscratch[4]);
   }
 
   /* A boundary body's gathered entry: its body (nbody values), the number of its window
@@ -370,7 +370,7 @@ namespace Collide {
     }
     unknown_owner = false;
     for (const auto &rr : rootrank) unknown_owner |= rr.second < 0;
-    std::vector<double> got;
+    std::vector<double> &got = gotbuf;
     {
       ScopeTime st(times.gather_messages);
       if (!ex.to_ranks(ndest, nsend, got)) return false;
@@ -608,7 +608,11 @@ namespace Collide {
     // Window partners of each boundary body: those with a higher ID (the edge, sent with its
     // shift) and those with a lower one (their IDs, for the completeness of a gather to the
     // neighbouring ranks).
-    std::vector<int> pstart(nb + 1, 0), lstart(nb + 1, 0);
+    // (Scratch kept between calls: these span all nb bodies, every window that gathers.)
+    std::vector<int> &pstart = bscratch[0], &lstart = bscratch[1], &pos = bscratch[2],
+                     &lpos = bscratch[3];
+    pstart.assign(nb + 1, 0);
+    lstart.assign(nb + 1, 0);
     for (const Edge &e : wedges) {
       if (e.i < nb && chosen(e.i)) pstart[e.i + 1]++;
       if (e.j < nb && chosen(e.j)) lstart[e.j + 1]++;
@@ -625,8 +629,11 @@ namespace Collide {
       pstart[b + 1] += pstart[b];
       lstart[b + 1] += lstart[b];
     }
-    std::vector<double> partners((size_t) NPARTNER * pstart[nb]), lows(lstart[nb]);
-    std::vector<int> pos(pstart.begin(), pstart.end() - 1), lpos(lstart.begin(), lstart.end() - 1);
+    std::vector<double> &partners = bpartners, &lows = blows;
+    partners.resize((size_t) NPARTNER * pstart[nb]);
+    lows.resize(lstart[nb]);
+    pos.assign(pstart.begin(), pstart.end() - 1);
+    lpos.assign(lstart.begin(), lstart.end() - 1);
     auto put = [&](int b, long id, const double *shift) {
       double *o = &partners[(size_t) NPARTNER * pos[b]++];
       o[0] = (double) id;
@@ -664,10 +671,10 @@ namespace Collide {
     times.span_pack += lap(clock);
     long mine_off = 0;
     auto group_gathered = [&](int &ngr) {
-      UnionFind guf;
+      UnionFind &guf = gunion;
       guf.reset((int) gentry.size());
       for (const Edge &e : gedges) guf.unite(e.i, e.j);
-      group_by_root(guf, (int) gentry.size(), nullptr, gstart2, gmembers2, fill, ngr);
+      group_by_root(guf, (int) gentry.size(), nullptr, gstart2, gmembers2, fill, ngr, bscratch[4]);
     };
     int ngr = 0;
     // To the neighbouring ranks first (more than two ranks: on two, that is everyone), if
@@ -741,7 +748,7 @@ namespace Collide {
           const double *h = &recv[gentry[k]];
           o.insert(o.end(), h, h + entry_length(h, nbody));
         });
-        std::vector<double> got;
+        std::vector<double> &got = gotbuf;
         {
           ScopeTime st(times.gather_messages);
           ex.to_ranks(ndest, nsend, got);
@@ -882,7 +889,7 @@ namespace Collide {
         std::copy(gvir.begin() + 6 * (size_t) k, gvir.begin() + 6 * (size_t) (k + 1),
                   o.begin() + at + 1 + nr);
     });
-    std::vector<double> got;
+    std::vector<double> &got = gotbuf;
     ex.to_ranks(ndest, nsend, got);
     long taken = 0;
     for (size_t off = 0; off + nval <= got.size(); off += nval) {

@@ -233,6 +233,7 @@ namespace Collide {
     std::vector<char> fjoined, ljoined;
     std::vector<int> fwin;    // indices of foreign edges joined in the window
     UnionFind uf;
+    UnionFind gunion;    // the gathered bodies' groups
     std::vector<char> isb;    // node is the root of a boundary group
     std::vector<int> gstart, gmembers, fill;
     int nlocal_groups = 0;
@@ -250,6 +251,9 @@ namespace Collide {
     std::vector<char> gmissing;
     std::vector<size_t> gentry;    // per gathered body: its entry's offset in recv
     std::vector<std::pair<long, size_t>> gorder;    // (ID, entry offset) in ID order
+    std::vector<int> bscratch[5];                    // scratch of resolve_boundary() and the
+    std::vector<double> bpartners, blows;            // grouping, kept between calls
+    std::vector<double> gotbuf;                      // what Exchange::to_ranks() brings
     std::vector<long> idkey;       // gathered bodies by ID (open addressing; 0: empty)
     std::vector<int> idval;
     bool virial_all = false;         // some rank tallies per-atom virials this step
