@@ -516,8 +516,9 @@ namespace Collide {
 
   /* The entries of recv from offset `from` on (a round passing entries on), added to the
      last unpack_gathered()'s index after its bodies, not in ID order (the rounds need the IDs,
-     partners and owners alone; unpack_gathered() again puts them in order): entries of bodies
-     not yet here, the edges they bring, and the partners that went missing. */
+     partners and owners alone; reorder_gathered() puts them in order once the rounds are
+     over): entries of bodies not yet here, the edges they bring, and the partners that were
+     missing and came. */
   void WindowDriver::unpack_more(size_t from)
   {
     const int nbody = body_values(spin);
