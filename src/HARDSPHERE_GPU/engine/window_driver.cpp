@@ -341,9 +341,19 @@ namespace Collide {
                                       int nentry, Exchange &ex, long &mine_off)
   {
     const int nf = (int) foreign.size();
-    // (root, rank) of every foreign node in a boundary group; an unknown owner is rank -1.
+    // (root, rank) of every foreign node in a boundary group of a body of this rank (bchosen);
+    // an unknown owner is rank -1.  (The groups of foreign nodes alone, most of the ghosts,
+    // are their owners' business: nothing goes from here for them.  The wide sends go to the
+    // owners of all foreign nodes, so that no group needs rounds passing entries on.)
+    std::vector<char> &mine = gmark;
+    mine.assign(nb + nf, gather_wide ? 1 : 0);
+    for (int b = 0; b < nb && !gather_wide; ++b)
+      if (bchosen[b]) mine[uf.find(b)] = 1;
     rootrank.clear();
-    for (int k = 0; k < nf; ++k) rootrank.emplace_back(uf.find(nb + k), foreign[k].owner);
+    for (int k = 0; k < nf; ++k) {
+      const int r = uf.find(nb + k);
+      if (mine[r]) rootrank.emplace_back(r, foreign[k].owner);
+    }
     std::sort(rootrank.begin(), rootrank.end());
     rootrank.erase(std::unique(rootrank.begin(), rootrank.end()), rootrank.end());
     ndest.clear();

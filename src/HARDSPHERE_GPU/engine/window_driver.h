@@ -254,6 +254,7 @@ namespace Collide {
     std::vector<int> bscratch[5];                    // scratch of resolve_boundary() and the
     std::vector<double> bpartners, blows;            // grouping, kept between calls
     std::vector<double> gotbuf;                      // what Exchange::to_ranks() brings
+    std::vector<char> gmark;                         // roots of this rank's boundary groups
     std::vector<long> idkey;       // gathered bodies by ID (open addressing; 0: empty)
     std::vector<int> idval;
     bool virial_all = false;         // some rank tallies per-atom virials this step
