@@ -467,14 +467,13 @@ namespace Collide {
   {
     const int nbody = body_values(spin);
     const std::vector<std::pair<long, size_t>> &order = gorder;
+    // The bodies themselves only once the gather is complete (unpack_bodies()): the rounds
+    // passing entries on need the IDs, partners and owners alone.
     gbodies.clear();
     gedges.clear();
     const int ng = (int) order.size();
     gentry.resize(ng);
     for (int k = 0; k < ng; ++k) gentry[k] = order[k].second;
-    // The bodies themselves only once the gather is complete (unpack_bodies()): the rounds
-    // passing entries on need the IDs, partners and owners alone.
-    gbodies.clear();
     gmine.assign(ng, -1);
     gmissing.assign(ng, 0);
     // ID -> index: open addressing (IDs are positive), twice as many slots as bodies.
@@ -482,13 +481,7 @@ namespace Collide {
     while (slots < 2 * (size_t) ng) slots <<= 1;
     idkey.assign(slots, 0);
     idval.resize(slots);
-    const size_t mask = slots - 1;
-    for (int k = 0; k < ng; ++k) {
-      size_t h = id_slot(order[k].first, mask);
-      while (idkey[h] != 0) h = (h + 1) & mask;
-      idkey[h] = order[k].first;
-      idval[h] = k;
-    }
+    for (int k = 0; k < ng; ++k) index_id(order[k].first, k);
     {
       size_t off = (size_t) mine_off;
       for (int b : bsent) {
@@ -496,32 +489,52 @@ namespace Collide {
         off += entry_length(&recv[off], nbody);
       }
     }
-    for (int k = 0; k < ng; ++k) {
-      const double *h = &recv[order[k].second];
-      const int nhigh = (int) h[nbody], nlow = (int) h[nbody + 1];
-      for (int q = 0; q < nhigh; ++q) {
-        const double *o = h + nbody + NHEAD + (size_t) NPARTNER * q;
-        const int j = gathered_index((long) o[0]);
-        if (j < 0) {
-          // Sparse: a partner on a rank that is not a neighbour here.  Otherwise never
-          // expected (every rank sees the same gathered data and falls back alike).
-          if (sparse)
-            gmissing[k] = 1;
-          else
-            gather_broken = true;
-          continue;
-        }
-        Edge e;
-        e.i = k;
-        e.j = j;
-        for (int d = 0; d < 3; ++d) e.shift[d] = o[1 + d];
-        gedges.push_back(e);
+    for (int k = 0; k < ng; ++k) link_partners(k, 0, sparse);
+  }
+
+  /* Gathered body k of ID id into the ID table (idkey/idval, with a free slot). */
+  void WindowDriver::index_id(long id, int k)
+  {
+    const size_t mask = idkey.size() - 1;
+    size_t h = id_slot(id, mask);
+    while (idkey[h] != 0) h = (h + 1) & mask;
+    idkey[h] = id;
+    idval[h] = k;
+  }
+
+  /* Gathered body k's edges (from its list of partners with a higher ID: an edge is its
+     lower-ID body's) to the partners here, except those to a partner below `old` where k is
+     below it too (added before); sparse: gmissing[k] says whether a partner of either list is
+     not here; else none is expected missing (gather_broken where one is: every rank sees the
+     same gathered data and falls back alike). */
+  void WindowDriver::link_partners(int k, int old, bool sparse)
+  {
+    const int nbody = body_values(spin);
+    const double *h = &recv[gentry[k]];
+    const int nhigh = (int) h[nbody], nlow = (int) h[nbody + 1];
+    bool missing = false;
+    for (int q = 0; q < nhigh; ++q) {
+      const double *o = h + nbody + NHEAD + (size_t) NPARTNER * q;
+      const int j = gathered_index((long) o[0]);
+      if (j < 0) {
+        missing = true;    // sparse: a partner on a rank that is not a neighbour here
+        continue;
       }
-      if (sparse)
-        for (int q = 0; q < nlow; ++q)
-          if (gathered_index((long) h[nbody + NHEAD + (size_t) NPARTNER * nhigh + q]) < 0)
-            gmissing[k] = 1;
+      if (k < old && j < old) continue;
+      Edge e;
+      e.i = k;
+      e.j = j;
+      for (int d = 0; d < 3; ++d) e.shift[d] = o[1 + d];
+      gedges.push_back(e);
     }
+    if (!sparse) {
+      if (missing) gather_broken = true;
+      return;
+    }
+    for (int q = 0; q < nlow && !missing; ++q)
+      if (gathered_index((long) h[nbody + NHEAD + (size_t) NPARTNER * nhigh + q]) < 0)
+        missing = true;
+    gmissing[k] = missing ? 1 : 0;
   }
 
   /* The entries of recv from offset `from` on (a round passing entries on), added to the
@@ -541,50 +554,17 @@ namespace Collide {
       gmine.push_back(-1);
       gmissing.push_back(0);
       if (2 * gentry.size() > idkey.size()) {    // twice as many slots as bodies
-        const size_t slots = 2 * idkey.size();
-        idkey.assign(slots, 0);
-        idval.resize(slots);
-        for (int m = 0; m < k; ++m) {
-          const long mid = (long) recv[gentry[m] + ID_AT];
-          size_t h = id_slot(mid, slots - 1);
-          while (idkey[h] != 0) h = (h + 1) & (slots - 1);
-          idkey[h] = mid;
-          idval[h] = m;
-        }
+        idkey.assign(2 * idkey.size(), 0);
+        idval.resize(idkey.size());
+        for (int m = 0; m < k; ++m) index_id((long) recv[gentry[m] + ID_AT], m);
       }
-      const size_t mask = idkey.size() - 1;
-      size_t h = id_slot(id, mask);
-      while (idkey[h] != 0) h = (h + 1) & mask;
-      idkey[h] = id;
-      idval[h] = k;
+      index_id(id, k);
     }
+    // The new bodies' edges to any partner here, and the earlier bodies' edges to the new ones
+    // (an earlier body whose partners were all here has them all already).
     const int ng = (int) gentry.size();
-    // An edge is its lower-ID body's (in that body's list of higher partners): the new bodies'
-    // edges to any partner here, and the earlier bodies' edges to the new ones.
-    for (int k = 0; k < ng; ++k) {
-      if (k < old_ng && !gmissing[k]) continue;    // every partner was here already
-      const double *h = &recv[gentry[k]];
-      const int nhigh = (int) h[nbody], nlow = (int) h[nbody + 1];
-      bool missing = false;
-      for (int q = 0; q < nhigh; ++q) {
-        const double *o = h + nbody + NHEAD + (size_t) NPARTNER * q;
-        const int j = gathered_index((long) o[0]);
-        if (j < 0) {
-          missing = true;
-          continue;
-        }
-        if (k < old_ng && j < old_ng) continue;    // that edge is there already
-        Edge e;
-        e.i = k;
-        e.j = j;
-        for (int d = 0; d < 3; ++d) e.shift[d] = o[1 + d];
-        gedges.push_back(e);
-      }
-      for (int q = 0; q < nlow && !missing; ++q)
-        if (gathered_index((long) h[nbody + NHEAD + (size_t) NPARTNER * nhigh + q]) < 0)
-          missing = true;
-      gmissing[k] = missing ? 1 : 0;
-    }
+    for (int k = 0; k < ng; ++k)
+      if (k >= old_ng || gmissing[k]) link_partners(k, old_ng, true);
   }
 
   /* The gathered bodies (gbodies) from their entries, in the order of the last

@@ -327,6 +327,8 @@ namespace Collide {
     void unpack_more(size_t from);
     void reorder_gathered(long mine_off, size_t ng0);
     void index_gathered(long mine_off, bool sparse);
+    void index_id(long id, int k);
+    void link_partners(int k, int old, bool sparse);
     void unpack_bodies();
     int gathered_index(long id) const;
     int gathered_owner(int k) const;
