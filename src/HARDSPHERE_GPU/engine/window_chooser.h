@@ -38,6 +38,10 @@ namespace Collide {
     bool gather_wide = false;
   };
 
+  /// Relative margin on contact distances for round-off in the windows' join and check tests,
+  /// the host driver's and the device step's alike (so that both choose the same windows).
+  constexpr double WINDOW_MARGIN = 1e-9;
+
   /// The step's own bound rule (core/trajectory.h's drift_bound(): twice the drift, at least
   /// half the fastest atom's drift), as window settings: a window as long as the step with
   /// these joins the candidate pairs that the step's search found with the step's bounds

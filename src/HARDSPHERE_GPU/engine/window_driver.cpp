@@ -30,8 +30,7 @@ namespace Collide {
       ~ScopeTime() { sum += lap(t0); }
     };
 
-    /// Relative margin on contact distances for round-off in the join and check tests.
-    constexpr double MARGIN = 1e-9;
+    constexpr double MARGIN = WINDOW_MARGIN;
     /// Doubles per body in the boundary exchange (pack_body; 3 more with friction: the spin),
     /// and per partner (id, shift).
     constexpr int NBODY = 29;

@@ -10,6 +10,7 @@
 
 #include "resident_step_cuda.h"
 #include "group_loop_warp.cuh"
+#include "engine/window_chooser.h"
 
 #include <cub/block/block_reduce.cuh>
 
@@ -26,8 +27,7 @@ namespace Collide {
     // Groups up to this size are resolved by one thread each, larger ones by a warp (measured
     // on an H100: 1, 2 and 4 within 5% at N = 65536 and 1e6, 8 and more slower).
     constexpr int SMALL_GROUP = 2;
-    /// Relative margin on contact distances in the join and check tests (window_driver.cpp's).
-    constexpr double MARGIN = 1e-9;
+    constexpr double MARGIN = WINDOW_MARGIN;    // engine/window_chooser.h
 
     int nblocks(long n, int block = BLOCK)
     {
