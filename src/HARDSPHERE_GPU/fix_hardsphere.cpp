@@ -493,6 +493,7 @@ void FixHardSphere::init()
                "the timestep)",
                update->dt);
   check_other_fixes();
+  forces_none = no_force_styles();
 
   // Friction turns spin into translation through the moment of inertia k m r^2: k follows the
   // integrator that moves these atoms' omega (fix nve/sphere and the nvt, npt, nph/sphere
@@ -620,6 +621,22 @@ void FixHardSphere::check_other_fixes()
                  least != MAXTAGINT ? fmt::format("atom {}", least)
                                     : std::string("the same group"));
   }
+}
+
+/* True where nothing in the input sets forces on atoms: no pair, bond, angle, dihedral,
+   improper or kspace style, and no fix with a hook in which forces are added (pre_force,
+   pre_reverse, post_force and their rRESPA forms).  LAMMPS then zeroes f every step and
+   nothing writes it, so a device step needs no copy of it. */
+bool FixHardSphere::no_force_styles() const
+{
+  if (force->pair || force->bond || force->angle || force->dihedral || force->improper ||
+      force->kspace)
+    return false;
+  const int hooks = FixConst::PRE_FORCE | FixConst::PRE_REVERSE | FixConst::POST_FORCE |
+      FixConst::PRE_FORCE_RESPA | FixConst::POST_FORCE_RESPA;
+  for (int f = 0; f < modify->nfix; ++f)
+    if (modify->fmask[f] & hooks) return false;
+  return true;
 }
 
 /* The moment-of-inertia factor of the sphere integrators (nve/sphere, nvt/sphere, npt/sphere,

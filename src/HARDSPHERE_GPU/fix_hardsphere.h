@@ -226,6 +226,13 @@ class FixHardSphere : public Fix {
   // A fix that changes radius, mass or type in place (fix adapt, type swaps): those arrays go
   // to the device every step.
   bool sizes_vary = false;
+  // No style sets forces (no pair, bond, angle, dihedral, improper or kspace style and no fix
+  // with a force hook): f is zero on every step, and the device step does not copy it up.
+  // Checked against the atoms' f on the first device step of each run (forces_seen()).
+  bool forces_none = false;
+  bool forces_checked = false;    // this run's first device step found f zero
+  bool no_force_styles() const;
+  void forces_seen(double amax);
   // gpu yes on several ranks with gpu/gather yes: each step's atoms (of the group) gathered on
   // rank 0, whose `resident` step runs it (step_gathered(); the same on every rank).
   bool gather_step = false;

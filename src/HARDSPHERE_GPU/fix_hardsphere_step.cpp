@@ -1059,6 +1059,7 @@ void FixHardSphere::setup(int vflag)
   if (resident) resident->forget_host_arrays();
   if (peer) peer->forget_host_arrays();
   resident_same = false;
+  forces_checked = false;
   // The virial and the collision count are the last step's (or the restart file's): the
   // run's first thermo output shows the collisions' share of the pressure, as every later
   // one does.
@@ -1281,6 +1282,20 @@ FixHardSphere::Source FixHardSphere::atom_source() const
   return s;
 }
 
+/* The run's first device step with no force styles (forces_none) copied f up and found amax,
+   its largest acceleration: zero confirms that f stays zero; anything else (a style that sets
+   forces outside the hooks no_force_styles() knows) means f goes up every step. */
+void FixHardSphere::forces_seen(double amax)
+{
+  if (amax == 0.0) {
+    forces_checked = true;
+    return;
+  }
+  forces_none = false;
+  error->warning(FLERR, "Fix hardsphere: atoms have forces although no pair, bond or kspace "
+                        "style or force fix is defined; copying f to the device every step");
+}
+
 /* The timers and counters of a resident step (one rank, or rank 0's gathered step as every
    rank got it); on `done` also the last step's figures. */
 void FixHardSphere::count_resident(const HSGPU::Collide::ResidentReport &report)
@@ -1333,8 +1348,12 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
   double t_gather = 0.0;
   try {
     if (whole) {
-      const HSGPU::Collide::ResidentAtoms a = resident_atoms(atom_source(), same);
+      HSGPU::Collide::ResidentAtoms a = resident_atoms(atom_source(), same);
+      // No force styles: f (zero) stays on the host after the run's first device step found
+      // it zero.
+      a.zero_forces = forces_none && forces_checked;
       resident->run_atoms(a, box, step_params(), wsettings, mine, report);
+      if (forces_none && !forces_checked) forces_seen(report.amax);
       // The budget's checks, and bound_floor for the host should the device decline.
       check_budget(report.vmax2, report.amax, report.rmax);
     } else {

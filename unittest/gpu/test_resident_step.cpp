@@ -216,6 +216,52 @@ TEST(ResidentStepCuda, StepRedoneWithRaisedBoundsIsExact)
 // bit for bit what three steps copying everything give, with 72 bytes per atom copied up
 // instead of 104; arrays that moved are copied again whatever the caller says.  Each step also
 // reports the largest squared speed at its end as the host finds it.
+// A caller with no forces (ResidentAtoms::zero_forces): f is neither read nor copied up, and
+// the steps are those of zero forces copied up, bit for bit.  The forces given here are not
+// zero, so a step that read them would differ.
+TEST(ResidentStepCuda, ZeroForcesAreNotCopiedUp)
+{
+  if (HSGPU::GPU::device_count() == 0) GTEST_SKIP() << "no CUDA device";
+  const double dt = 0.2;
+  LatticeGas g(12, 1.1, dt, 4242, 1);
+  const int n = g.n;
+  ASSERT_TRUE(std::all_of(g.f.begin(), g.f.end(), [](double f) { return f == 0.0; }));
+  const std::vector<double> junk(3 * n, 3.0);
+  struct Run {
+    std::unique_ptr<ResidentStep> rs = make_cuda_resident_step(0);
+    std::vector<double> x, v, tlast;
+    long pairs = 0, bytes_up = 0;
+  };
+  Run told, copied;
+  for (Run *r : {&told, &copied}) {
+    r->x = g.x;
+    r->v = g.v;
+    r->tlast.assign(n, -1e30);
+  }
+  for (int k = 0; k < 3; ++k)
+    for (Run *r : {&told, &copied}) {
+      for (int i = 0; i < 3 * n; ++i) r->x[i] += r->v[i] * dt;
+      ResidentAtoms a = g.atoms(r->x.data(), r->v.data(), r->tlast.data(), g.radius.data(), -1.0);
+      if (r == &told) {
+        a.f = junk.data();
+        a.zero_forces = true;
+      }
+      Tally t;
+      ResidentReport rep;
+      r->rs->run_atoms(a, g.box, g.p, g.s, t, rep);
+      ASSERT_EQ(rep.outcome, ResidentOutcome::done);
+      EXPECT_EQ(rep.amax, 0.0);
+      r->pairs += t.pair;
+      r->bytes_up += rep.bytes_up;
+    }
+  EXPECT_GT(told.pairs, 50) << "enough collisions to mean anything";
+  EXPECT_EQ(told.pairs, copied.pairs);
+  EXPECT_EQ(0, std::memcmp(told.x.data(), copied.x.data(), g.x.size() * sizeof(double)));
+  EXPECT_EQ(0, std::memcmp(told.v.data(), copied.v.data(), g.v.size() * sizeof(double)));
+  EXPECT_EQ(0, std::memcmp(told.tlast.data(), copied.tlast.data(), n * sizeof(double)));
+  EXPECT_EQ(copied.bytes_up - told.bytes_up, 3L * 24 * n);
+}
+
 TEST(ResidentStepCuda, KeepsUnchangedArraysOnTheDevice)
 {
   if (HSGPU::GPU::device_count() == 0) GTEST_SKIP() << "no CUDA device";

@@ -127,6 +127,9 @@ namespace Collide {
     // written to them since): the step may then keep its device copies instead of copying
     // them up again.  False is always safe.
     bool same_atoms = false;
+    // The caller vouches that f is zero for every atom (no style sets forces: FixHardSphere::
+    // forces_none): f is not read or copied up, the device uses zeros.
+    bool zero_forces = false;
   };
 
   class ResidentStep {

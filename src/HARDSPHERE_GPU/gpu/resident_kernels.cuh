@@ -999,6 +999,23 @@ namespace Collide {
         for (int d = 0; d < 3; ++d) omega[3 * r.index + d] = spin[3 * k + d];
     }
 
+    // Launch: one thread per (result, one of its six numbers), 6 changed threads.  Result k's
+    // x and v into the caller's arrays x and v, which lie in host memory mapped into the
+    // device's address space: the writes cross the link, so the six threads of one result
+    // write its two runs of 24 bytes side by side (48 bytes per result over the link).
+    __global__ void atom_write_direct_kernel(const AtomResult *__restrict__ res, int changed,
+                                             double *x, double *v)
+    {
+      const long t = (long) blockIdx.x * blockDim.x + threadIdx.x;
+      if (t >= 6L * changed) return;
+      const int k = (int) (t / 6), c = (int) (t % 6);
+      const AtomResult &r = res[k];
+      if (c < 3)
+        x[3 * (long) r.index + c] = r.x[c];
+      else
+        v[3 * (long) r.index + c - 3] = r.v[c - 3];
+    }
+
   }    // namespace
 
 }    // namespace Collide

@@ -35,8 +35,10 @@
                was not a candidate and could have touched declines the step); only the bodies that had events go back, compacted in body order (run:
                whole Bodies; run_atoms: end-of-step x, v and tlast, written into the caller's
                arrays, or, where more than 1/32 of the atoms changed and the arrays are
-               page-locked, written into the device copies and x and v copied back whole;
-               every atom's tlast shifted to the step end and copied back whole)
+               page-locked, written by the device straight into them, which the driver maps
+               into its address space (HSGPU_RESIDENT_DIRECT=0: into the device copies, and x
+               and v copied back whole); every atom's tlast shifted to the step end and copied
+               back whole)
 
    The host waits for the device where it needs a number to go on, and reads every scalar it
    needs then (Scalars, one download): once for the scan, the search and the first window
@@ -114,6 +116,28 @@ namespace Collide {
     {
       const char *v = std::getenv(name);
       return v ? std::atof(v) : fallback;
+    }
+
+    /// HSGPU_RESIDENT_DIRECT=0 (a tuning aid): the changed atoms go back by whole copies of x
+    /// and v instead of the device's writes into the caller's page-locked arrays.
+    bool direct_writes()
+    {
+      static const bool on = env_number("HSGPU_RESIDENT_DIRECT", 1.0) != 0.0;
+      return on;
+    }
+
+    /// The device's address of `host` (inside the range `lock` holds page-locked, which the
+    /// driver maps into the device's address space), into `dev`; false where it has none.
+    bool mapped(const HostRangeLock &lock, void *host, double *&dev)
+    {
+      void *base = nullptr;
+      if (!lock.p || cudaHostGetDevicePointer(&base, lock.p, 0) != cudaSuccess) {
+        (void) cudaGetLastError();
+        return false;
+      }
+      dev = reinterpret_cast<double *>(static_cast<char *>(base) +
+                                       (static_cast<char *>(host) - static_cast<char *>(lock.p)));
+      return true;
     }
 
     double seconds_since(Clock::time_point t)
@@ -439,7 +463,7 @@ namespace Collide {
         bool on = profile_mode() == 1;    // waits after every phase
         Timeline line;    // HSGPU_RESIDENT_PROFILE=2: times by events, no waits
         double sec[count] = {};
-        long steps = 0, tries = 0, passes = 0, whole = 0;
+        long steps = 0, tries = 0, passes = 0, whole = 0, direct = 0;
         int locked = 0;
         bool warm = false;    // the first step (allocations, page-locking) is not counted
         void end_step()
@@ -448,7 +472,7 @@ namespace Collide {
           if (warm) return;
           warm = true;
           for (double &x : sec) x = 0.0;
-          steps = tries = passes = whole = 0;
+          steps = tries = passes = whole = direct = 0;
         }
         Clock::time_point last;
         void print() const
@@ -466,8 +490,9 @@ namespace Collide {
             std::fprintf(stderr, "; %s %.4g", name[k], 1e3 * sec[k] / steps);
           std::fprintf(stderr,
                        " ms; %.3g windows tried and %.3g resolve passes per step; %d arrays "
-                       "page-locked, %ld steps copied x, v and tlast back whole\n",
-                       (double) tries / steps, (double) passes / steps, locked, whole);
+                       "page-locked, %ld steps copied x, v and tlast back whole, %ld wrote the "
+                       "changed atoms into them directly\n",
+                       (double) tries / steps, (double) passes / steps, locked, whole, direct);
         }
       } prof;
 
@@ -1251,6 +1276,11 @@ namespace Collide {
       for (int k = 0; k < NLOCKED; ++k) {
         if (a.inputs_shared && k < FIRST_KEPT) continue;    // x, v, f: in place already
         if (a.statics_shared && k >= FIRST_KEPT) continue;  // the rest: in place already
+        if (k == 2 && a.zero_forces) {                      // no forces: zeros, not copied
+          arrays[k].d.reserve(arrays[k].bytes + 8, "cudaMalloc(atoms)");
+          cuda_check(cudaMemsetAsync(arrays[k].d.ptr, 0, arrays[k].bytes, stream), "cudaMemset");
+          continue;
+        }
         locked[k].keep(arrays[k].h, arrays[k].bytes, locking);
         if (locked[k].p) ++prof.locked;
         if (keep && k >= FIRST_KEPT) continue;
@@ -1348,7 +1378,20 @@ namespace Collide {
       // other atoms get their own bytes back.
       static const bool scatter = std::getenv("HSGPU_RESIDENT_SCATTER") != nullptr;
       const bool whole = !a.results && !scatter && changed > n / 32 && locked[0].p && locked[1].p;
-      if (whole) {
+      // Or the device writes the changed atoms straight into the page-locked arrays (mapped
+      // into its address space): only their bytes cross the link (HSGPU_RESIDENT_DIRECT=0: the
+      // whole copies).
+      double *hx = nullptr, *hv = nullptr;
+      if (whole && !spin && direct_writes() && mapped(locked[0], a.x, hx) &&
+          mapped(locked[1], a.v, hv)) {
+        ++prof.direct;
+        if (changed > 0) {
+          const long threads = 6L * changed;
+          atom_write_direct_kernel<<<(unsigned) ((threads + BLOCK - 1) / BLOCK), BLOCK, 0,
+                                     stream>>>(d_sums.as<AtomResult>(), changed, hx, hv);
+          launched("atom_write_direct_kernel");
+        }
+      } else if (whole) {
         ++prof.whole;
         if (changed > 0) {
           atom_write_kernel<<<nblocks(changed), BLOCK, 0, stream>>>(
@@ -1368,7 +1411,7 @@ namespace Collide {
       cuda_check(cudaMemcpyAsync(a.tlast, d_atlast.ptr, n1, cudaMemcpyDeviceToHost, stream),
                  "cudaMemcpy(tlast)");
       if (whole) {
-        wait("cudaMemcpy(atoms back)");
+        wait("cudaMemcpy(atoms back)");    // (or the direct writes)
       } else {
         // Room for a quarter of the atoms at once, so that the buffer rarely grows.
         host_results.reserve(std::max((size_t) changed, (size_t) n / 4) * sizeof(AtomResult),
