@@ -20,6 +20,64 @@ using namespace hsgpu_test;
 
 namespace {
 
+// The resident step's warp loop with kept edge times (group_loop_warp.cuh's
+// carry_out_cached()), its lanes one after the other: every edge's pair time found once at the
+// start, after each event those of the two bodies' edges, and the best events of the bodies
+// and their neighbours from the kept times (cached_best_event()).
+long resolve_group_cached(const GroupGraph &g, const Params &p, std::vector<double> &et,
+                          const int *members, int nmembers, double t_end, long budget,
+                          Tally &tally)
+{
+  auto times_of = [&](int b) {
+    for (int k = g.adj_start[b]; k < g.adj_start[b + 1]; ++k) {
+      const Edge &e = g.edges[g.adj[k]];
+      et[g.adj[k]] = pair_event_time(g.bodies[e.i], g.bodies[e.j], e, p.dt);
+    }
+  };
+  auto bests_around = [&](int b) {
+    g.best[b] = cached_best_event(g, p, et.data(), b);
+    for (int k = g.adj_start[b]; k < g.adj_start[b + 1]; ++k) {
+      const Edge &e = g.edges[g.adj[k]];
+      const int o = e.i == b ? e.j : e.i;
+      g.best[o] = cached_best_event(g, p, et.data(), o);
+    }
+  };
+  for (int k = 0; k < nmembers; ++k) times_of(members[k]);
+  for (int k = 0; k < nmembers; ++k)
+    g.best[members[k]] = cached_best_event(g, p, et.data(), members[k]);
+  long count = 0;
+  while (true) {
+    int arg = -1;
+    for (int k = 0; k < nmembers; ++k) {
+      const int b = members[k];
+      if (g.best[b].t != HSGPU::Contact::never() && (arg < 0 || earlier(g.best[b], g.best[arg])))
+        arg = b;
+    }
+    if (arg < 0 || !(g.best[arg].t < t_end)) break;
+    if (count >= budget) {
+      tally.capped = 1;
+      break;
+    }
+    const Event ev = g.best[arg];
+    int i = ev.index, j = -1;
+    if (ev.face >= 0) {
+      process_wall(g.bodies[i], ev.face, ev.t, p, tally);
+    } else {
+      i = g.edges[ev.index].i;
+      j = g.edges[ev.index].j;
+      process_pair(g.bodies[i], g.bodies[j], g.edges[ev.index], ev.t, p, tally);
+      times_of(j);
+    }
+    times_of(i);
+    bests_around(i);
+    if (j >= 0) bests_around(j);
+    ++count;
+  }
+  return count;
+}
+
+bool kept_edge_times = false;    // resolve_like_device(): resolve_group_cached()
+
 // The CUDA backend's resolve(), with the kernel's threads run one after the other.
 long resolve_like_device(const WindowWork &w, const Params &p, Tally &tally)
 {
@@ -40,7 +98,11 @@ long resolve_like_device(const WindowWork &w, const Params &p, Tally &tally)
       for (int g = 0; g <= last_group; ++g) {
         Tally t;
         const int lo = w.group_start[g], hi = w.group_start[g + 1];
-        if (hi > lo)
+        std::vector<double> et(w.nedges, HSGPU::Contact::never());
+        if (hi > lo && kept_edge_times)
+          resolve_group_cached(graph, p, et, w.group_members + lo, hi - lo, w.t_end,
+                               g == capped_group ? capped_budget : budget, t);
+        else if (hi > lo)
           resolve_group_exact(graph, p, w.group_members + lo, hi - lo, w.t_end,
                               g == capped_group ? capped_budget : budget, t);
         tallies[g] = t;
@@ -108,6 +170,32 @@ TEST(GroupLoop, MatchesCpuBackendBitwise)
       expect_same_bits(a, b, what.c_str());
     }
   }
+}
+
+// The same with the edges' pair times kept between events (the resident step's warps), with
+// and without the maxevents cap.
+TEST(GroupLoop, KeptEdgeTimesMatchCpuBackendBitwise)
+{
+  auto cpu = make_cpu_backend();
+  const auto cpu_resolve = through(*cpu);
+  kept_edge_times = true;
+  for (const Variant &v : variants()) {
+    const CollideSystem sys = make_collide_system(v.spec);
+    const long total = run_windows(sys, sys.p, 1, cpu_resolve).tally.events;
+    for (long cap : {sys.p.maxevents, total / 2}) {
+      Params p = sys.p;
+      p.maxevents = cap;
+      for (int nwin : {1, 3}) {
+        const std::string what = std::string(v.name) + ", maxevents " + std::to_string(cap) +
+                                 ", " + std::to_string(nwin) + " window(s), kept edge times";
+        const StepOutcome a = run_windows(sys, p, nwin, cpu_resolve);
+        const StepOutcome b = run_windows(sys, p, nwin, resolve_like_device);
+        EXPECT_GT(a.tally.pair, 10) << what;
+        expect_same_bits(a, b, what.c_str());
+      }
+    }
+  }
+  kept_edge_times = false;
 }
 
 // Windows change no body's bits: three windows give the one window's bodies (but for w0 and

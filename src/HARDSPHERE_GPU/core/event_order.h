@@ -62,13 +62,14 @@ namespace Collide {
     return ev;
   }
 
-  /// Edge q's pair event (t = never() if none), with its tie-break key and version stamps.
-  HSGPU_HD Event pair_event(const Body *bodies, const Edge *edges, const Params &p, int q)
+  /// Edge q's pair event whose time t is known already (pair_event_time() of the two bodies'
+  /// present states; never() if none), with its tie-break key and version stamps.
+  HSGPU_HD Event pair_event_at(const Body *bodies, const Edge *edges, int q, double t)
   {
     const Edge &e = edges[q];
     const Body &bi = bodies[e.i], &bj = bodies[e.j];
     Event ev;
-    ev.t = pair_event_time(bi, bj, e, p.dt);
+    ev.t = t;
     ev.k1 = bi.id;
     ev.k2 = bj.id;
     ev.index = q;
@@ -76,6 +77,13 @@ namespace Collide {
     ev.s1 = bi.nevents;
     ev.s2 = bj.nevents;
     return ev;
+  }
+
+  /// Edge q's pair event (t = never() if none), with its tie-break key and version stamps.
+  HSGPU_HD Event pair_event(const Body *bodies, const Edge *edges, const Params &p, int q)
+  {
+    const Edge &e = edges[q];
+    return pair_event_at(bodies, edges, q, pair_event_time(bodies[e.i], bodies[e.j], e, p.dt));
   }
 
   /// Adjacency of edges over n bodies (CSR): the edges of body b are

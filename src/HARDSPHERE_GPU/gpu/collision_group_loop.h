@@ -57,6 +57,46 @@ namespace Collide {
     return e;
   }
 
+  /// group_best_event() from the pair event times of b's edges found before: et[q] is
+  /// pair_event_time() of edge q's two bodies as they are now, for every edge of b in the
+  /// window (joined).  The same event: the earliest by earlier() of b's wall event and of the
+  /// edges with the least time, the first in adjacency order among equal keys (only edges tied
+  /// at the least time need their keys).
+  HSGPU_HD Event cached_best_event(const GroupGraph &g, const Params &p, const double *et, int b)
+  {
+    Event e = wall_event(g.bodies, p, b);
+    const double never = Contact::never();
+    const int lo = g.adj_start[b], hi = g.adj_start[b + 1];
+    double least = never;
+    int arg = -1;
+    bool tie = false;
+    for (int k = lo; k < hi; ++k) {
+      const int q = g.adj[k];
+      if (g.joined && !g.joined[q]) continue;
+      const double t = et[q];
+      if (t == never) continue;
+      if (arg < 0 || t < least) {
+        least = t;
+        arg = q;
+        tie = false;
+      } else if (t == least) {
+        tie = true;
+      }
+    }
+    if (arg < 0) return e;
+    for (int k = tie ? lo : hi; k < hi; ++k) {    // ties: every edge at the least time, in order
+      const int q = g.adj[k];
+      if ((g.joined && !g.joined[q]) || et[q] != least) continue;
+      const Event c = pair_event_at(g.bodies, g.edges, q, least);
+      if (e.t == never || earlier(c, e)) e = c;
+    }
+    if (!tie) {
+      const Event c = pair_event_at(g.bodies, g.edges, arg, least);
+      if (e.t == never || earlier(c, e)) e = c;
+    }
+    return e;
+  }
+
   /// Recomputes the best events of body b and of its edge-neighbours.
   HSGPU_HD void group_refresh_around(const GroupGraph &g, const Params &p, int b)
   {

@@ -12,6 +12,9 @@
      best events, one per lane, first around body i, then around body j (a neighbour of
      both is recomputed twice, in turn, to the same value: after the event both bodies' states
      are final, as in the serial loop, which also refreshes around i after moving j).
+     Or, where the caller keeps the edges' pair event times (`et`), the times of the two
+     bodies' edges found again, one edge per lane, and the best events of both bodies and
+     their neighbours taken from those times, one body per lane (carry_out_cached()).
 
    Between the stages __syncwarp() orders the lanes' reads and writes of bodies and best[].
 
@@ -113,14 +116,80 @@ namespace Collide {
       __syncwarp();
     }
 
+    /* With the pair event times of the group's edges kept in et[] (resolve_group_warp()'s
+       `et`): an event changes the times of the edges of its bodies only.  Those are found
+       again, one edge per lane (body i's edges, then body j's but those to i, which are in
+       i's list), and then the best events of the bodies and their neighbours are taken from
+       et[] (cached_best_event()), one body per lane: no pair time is found twice, and no lane
+       walks a neighbour's edges computing their times in turn. */
+
+    /// The times of the window's edges of body i and of body j (-1: none) into et[].
+    __device__ inline void edge_times_around(const GroupGraph &g, const Params &p, double *et,
+                                             int i, int j, int lane)
+    {
+      const int li = g.adj_start[i], ni = g.adj_start[i + 1] - li;
+      const int lj = j >= 0 ? g.adj_start[j] : 0, nj = j >= 0 ? g.adj_start[j + 1] - lj : 0;
+      for (int s = lane; s < ni + nj; s += 32) {
+        const int q = s < ni ? g.adj[li + s] : g.adj[lj + s - ni];
+        if (g.joined && !g.joined[q]) continue;
+        const Edge &e = g.edges[q];
+        if (s >= ni && (e.i == i || e.j == i)) continue;
+        et[q] = pair_event_time(g.bodies[e.i], g.bodies[e.j], e, p.dt);
+      }
+    }
+
+    /// Best events of bodies i and j (-1: none) and of their joined edge-neighbours from et[],
+    /// one body per lane (a body reached twice gets the same event twice).
+    __device__ inline void bests_around(const GroupGraph &g, const Params &p, const double *et,
+                                        int i, int j, int lane)
+    {
+      const int ni = g.adj_start[i + 1] - g.adj_start[i] + 1;
+      const int nj = j >= 0 ? g.adj_start[j + 1] - g.adj_start[j] + 1 : 0;
+      for (int s = lane; s < ni + nj; s += 32) {
+        const int b = s < ni ? i : j;
+        const int k = s < ni ? s - 1 : s - ni - 1;    // -1: b itself
+        int o = b;
+        if (k >= 0) {
+          const int q = g.adj[g.adj_start[b] + k];
+          if (g.joined && !g.joined[q]) continue;
+          const Edge &e = g.edges[q];
+          o = (e.i == b) ? e.j : e.i;
+        }
+        g.best[o] = cached_best_event(g, p, et, o);
+      }
+    }
+
+    /// carry_out() with the edge times kept in et[].
+    __device__ inline void carry_out_cached(const GroupGraph &g, const Params &p, double *et,
+                                            const Event &ev, int lane, Tally &tally)
+    {
+      int i = ev.index, j = -1;
+      if (ev.face >= 0) {
+        if (lane == 0) process_wall(g.bodies[i], ev.face, ev.t, p, tally);
+      } else {
+        const Edge &e = g.edges[ev.index];
+        i = e.i;
+        j = e.j;
+        if (lane == 0) process_pair(g.bodies[i], g.bodies[j], e, ev.t, p, tally);
+      }
+      __syncwarp();
+      edge_times_around(g, p, et, i, j, lane);
+      __syncwarp();
+      bests_around(g, p, et, i, j, lane);
+      __syncwarp();
+    }
+
   }    // namespace WarpLoop
 
   /// resolve_group_exact() by one warp (see the file comment).  With `bests_ready` the
   /// members' first best events are in g.best already (group_best_event() of each, written by
-  /// the caller before the warp starts).
+  /// the caller before the warp starts).  With `et`: et[q] holds the pair event time of every
+  /// edge q of the group in the window (the caller's, as the bodies are at the start), which
+  /// the loop keeps current and takes the best events from (carry_out_cached()).
   __device__ inline long resolve_group_warp(const GroupGraph &g, const Params &p,
                                             const int *members, int nmembers, double t_end,
-                                            long budget, Tally &tally, bool bests_ready = false)
+                                            long budget, Tally &tally, bool bests_ready = false,
+                                            double *et = nullptr)
   {
     using namespace WarpLoop;
     const int lane = threadIdx.x & 31;
@@ -143,7 +212,10 @@ namespace Collide {
       }
       const Event ev = g.best[c.b];
       __syncwarp();    // every lane has read best[] before it changes
-      carry_out(g, p, ev, lane, tally);
+      if (et)
+        carry_out_cached(g, p, et, ev, lane, tally);
+      else
+        carry_out(g, p, ev, lane, tally);
       ++count;
     }
     return count;

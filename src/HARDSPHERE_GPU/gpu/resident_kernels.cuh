@@ -669,19 +669,34 @@ namespace Collide {
       __device__ bool operator()(int g) const { return gstart[g + 1] - gstart[g] > small; }
     };
 
-    // Launch: one thread per body (n).  The first best event of every body in a group of more
-    // than `small` bodies (root[b]'s size), for resolve_kernel: all at once, rather than a
-    // group's in turn by its warp's lanes.
+    // Launch: one thread per candidate edge (ne; s->nedges of them are the step's).  The pair
+    // event time of every edge of the window (joined) in a group of more than `small` bodies
+    // (root's size), into et[q], for first_bests_kernel and resolve_kernel: each edge's once.
+    __global__ void edge_times_kernel(GroupGraph graph, const int *__restrict__ root,
+                                      const int *__restrict__ size, const Scalars *s, int small,
+                                      const __grid_constant__ Params p, double *et)
+    {
+      const int q = blockIdx.x * blockDim.x + threadIdx.x;
+      if (q >= s->nedges || (graph.joined && !graph.joined[q])) return;
+      const Edge &e = graph.edges[q];
+      if (size[root[e.i]] <= small) return;
+      et[q] = pair_event_time(graph.bodies[e.i], graph.bodies[e.j], e, p.dt);
+    }
+
+    // Launch: one thread per body (n), after edge_times_kernel where et is given.  The first
+    // best event of every body in a group of more than `small` bodies (root[b]'s size), for
+    // resolve_kernel: all at once, rather than a group's in turn by its warp's lanes.
     __global__ void first_bests_kernel(GroupGraph graph, const int *__restrict__ root,
                                        const int *__restrict__ size, int n, int small,
-                                       const __grid_constant__ Params p)
+                                       const __grid_constant__ Params p, const double *et)
     {
       const int b = blockIdx.x * blockDim.x + threadIdx.x;
       if (b >= n || size[root[b]] <= small) return;
-      graph.best[b] = group_best_event(graph, p, b);
+      graph.best[b] = et ? cached_best_event(graph, p, et, b) : group_best_event(graph, p, b);
     }
 
-    // Launch: whole warps, any number, after first_bests_kernel.  Each warp takes the next of the s->nmulti groups of
+    // Launch: whole warps, any number, after first_bests_kernel (et: edge_times_kernel's times,
+    // kept current by the warps).  Each warp takes the next of the s->nmulti groups of
     // two or more bodies (order[0 .. nmulti), taken through s->next_group, zeroed by
     // members_kernel) until none
     // is left: its events before t_end, at most budget (group_loop_warp.cuh), and its tally
@@ -689,7 +704,7 @@ namespace Collide {
     __global__ void resolve_kernel(GroupGraph graph, const int *__restrict__ gstart,
                                    const int *__restrict__ gmembers, const int *__restrict__ order,
                                    double t_end, const __grid_constant__ Params p, long budget,
-                                   Scalars *s, WinSum *sums)
+                                   Scalars *s, WinSum *sums, double *et)
     {
       const int lane = threadIdx.x & 31;
       const int nmulti = s->nmulti;
@@ -701,7 +716,7 @@ namespace Collide {
         const int g = order[k];
         const int lo = gstart[g], hi = gstart[g + 1];
         Tally t;
-        resolve_group_warp(graph, p, gmembers + lo, hi - lo, t_end, budget, t, true);
+        resolve_group_warp(graph, p, gmembers + lo, hi - lo, t_end, budget, t, true, et);
         if (lane == 0) sums[k] = win_sum(t);
       }
     }

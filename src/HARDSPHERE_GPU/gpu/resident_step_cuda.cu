@@ -179,6 +179,7 @@ namespace Collide {
         d_control.release();
         d_part.release();
         d_boost.release();
+        d_etime.release();
         d_budget.release();
         host_budget.release();
         if (serial_exec) cudaGraphExecDestroy(serial_exec);
@@ -224,6 +225,7 @@ namespace Collide {
       std::vector<char> serial_key;             // arguments they were captured with
       DeviceBuffer d_ax, d_av, d_af, d_arad, d_amass, d_atlast, d_atype, d_aid;
       DeviceBuffer d_aomega;    // run_atoms(): the angular velocities (rough spheres only)
+      DeviceBuffer d_etime;     // resolve_groups(): pair event times of the larger groups' edges
       static constexpr int NLOCKED = 8;
       HostRangeLock locked[NLOCKED];    // run_atoms()'s arrays, page-locked where they lie
       bool locking = true;       // false once the driver refused: pageable copies from then on
@@ -764,12 +766,23 @@ namespace Collide {
       cudaStream_t two = use_side ? side : stream;
       cuda_check(cudaEventRecord(ev_fork, stream), "cudaEventRecord");
       cuda_check(cudaStreamWaitEvent(side, ev_fork, 0), "cudaStreamWaitEvent");
+      // The larger groups' edge times, kept by their warps (HSGPU_RESIDENT_EDGE_TIMES=0, a
+      // tuning aid: each best event from its edges' pair times found again).
+      static const bool edge_times = env_number("HSGPU_RESIDENT_EDGE_TIMES", 1.0) != 0.0;
+      double *et = nullptr;
+      if (edge_times && ne > 0) {
+        d_etime.reserve((size_t) ne * sizeof(double) + 8, "cudaMalloc(edge times)");
+        et = d_etime.as<double>();
+        edge_times_kernel<<<nblocks(ne), BLOCK, 0, stream>>>(
+            graph, d_root.as<int>(), d_size.as<int>(), scalars(), small, dp, et);
+        launched("edge_times_kernel");
+      }
       first_bests_kernel<<<nblocks(n), BLOCK, 0, stream>>>(graph, d_root.as<int>(),
-                                                          d_size.as<int>(), n, small, dp);
+                                                          d_size.as<int>(), n, small, dp, et);
       launched("first_bests_kernel");
       resolve_kernel<<<warp_blocks, GROUP_BLOCK, 0, stream>>>(
           graph, d_gstart.as<int>(), d_gmembers.as<int>(), d_order.as<int>(), t_end, dp, budget,
-          scalars(), d_sums.as<WinSum>());
+          scalars(), d_sums.as<WinSum>(), et);
       launched("resolve_kernel");
       resolve_single_kernel<<<std::min(nblocks(ngroups), 16 * resident_blocks), BLOCK, 0, two>>>(
           graph, d_gstart.as<int>(), d_gmembers.as<int>(), d_order.as<int>(), ngroups, t_end, dp,
