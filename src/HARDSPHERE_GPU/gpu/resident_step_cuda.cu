@@ -67,6 +67,9 @@
    the same phases by CUDA events without waiting, and the device's idle time while the host
    waits for it and enqueues the next work;
    HSGPU_RESIDENT_SCATTER=1 always sends the changed atoms back compacted (tests run both ways);
+   HSGPU_RESIDENT_DIRECT=0 copies x and v back whole instead of the device's writes into them;
+   HSGPU_RESIDENT_EDGE_TIMES=0 has the warps find each best event from its edges' pair times
+   again instead of keeping those times;
    HSGPU_RESIDENT_TARGET, _SMALL, _KF and _FLOOR override the window target, the largest group
    resolved by one thread, and the window bounds' factor and floor fraction, and
    HSGPU_RESIDENT_SIDE=0 runs the small groups after the larger ones on one stream, and
