@@ -1387,6 +1387,13 @@ namespace Collide {
       tlast_end_kernel<<<nblocks(n, TILE), TILE, 0, stream>>>(d_bodies.as<Body>(), n, p.dt, a.never,
                                                               d_atlast.as<double>());
       launched("tlast_end_kernel");
+      // Every atom's time of last collision comes back whole (8 bytes per atom), by the copy
+      // engine on the side stream while the changed atoms go back on this one.
+      cuda_check(cudaEventRecord(ev_fork, stream), "cudaEventRecord");
+      cuda_check(cudaStreamWaitEvent(side, ev_fork, 0), "cudaStreamWaitEvent");
+      cuda_check(cudaMemcpyAsync(a.tlast, d_atlast.ptr, n1, cudaMemcpyDeviceToHost, side),
+                 "cudaMemcpy(tlast)");
+      cuda_check(cudaEventRecord(ev_join, side), "cudaEventRecord");
       report.changed = changed;
       // Many atoms changed and the arrays are page-locked: writing the changed atoms into the
       // device copies of x, v and tlast and copying those back whole costs less than the
@@ -1423,9 +1430,7 @@ namespace Collide {
           cuda_check(cudaMemcpyAsync(a.omega, d_aomega.ptr, n3, cudaMemcpyDeviceToHost, stream),
                      "cudaMemcpy(omega)");
       }
-      // Every atom's time of last collision comes back whole (8 bytes per atom).
-      cuda_check(cudaMemcpyAsync(a.tlast, d_atlast.ptr, n1, cudaMemcpyDeviceToHost, stream),
-                 "cudaMemcpy(tlast)");
+      cuda_check(cudaStreamWaitEvent(stream, ev_join, 0), "cudaStreamWaitEvent");
       if (whole) {
         wait("cudaMemcpy(atoms back)");    // (or the direct writes)
       } else {
