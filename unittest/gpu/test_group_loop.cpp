@@ -45,20 +45,7 @@ long resolve_group_cached(const GroupGraph &g, const Params &p, std::vector<doub
   for (int k = 0; k < nmembers; ++k) times_of(members[k]);
   for (int k = 0; k < nmembers; ++k)
     g.best[members[k]] = cached_best_event(g, p, et.data(), members[k]);
-  long count = 0;
-  while (true) {
-    int arg = -1;
-    for (int k = 0; k < nmembers; ++k) {
-      const int b = members[k];
-      if (g.best[b].t != HSGPU::Contact::never() && (arg < 0 || earlier(g.best[b], g.best[arg])))
-        arg = b;
-    }
-    if (arg < 0 || !(g.best[arg].t < t_end)) break;
-    if (count >= budget) {
-      tally.capped = 1;
-      break;
-    }
-    const Event ev = g.best[arg];
+  return group_event_loop(g, members, nmembers, t_end, budget, tally, [&](const Event ev) {
     int i = ev.index, j = -1;
     if (ev.face >= 0) {
       process_wall(g.bodies[i], ev.face, ev.t, p, tally);
@@ -71,9 +58,7 @@ long resolve_group_cached(const GroupGraph &g, const Params &p, std::vector<doub
     times_of(i);
     bests_around(i);
     if (j >= 0) bests_around(j);
-    ++count;
-  }
-  return count;
+  });
 }
 
 bool kept_edge_times = false;    // resolve_like_device(): resolve_group_cached()

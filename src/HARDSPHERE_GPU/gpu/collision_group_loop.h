@@ -109,6 +109,39 @@ namespace Collide {
     }
   }
 
+  /// The member whose best event is the earliest by earlier() (the first among equal keys),
+  /// or -1 where none has an event.
+  HSGPU_HD int group_earliest(const GroupGraph &g, const int *members, int nmembers)
+  {
+    int arg = -1;
+    for (int k = 0; k < nmembers; ++k) {
+      const int b = members[k];
+      if (g.best[b].t != Contact::never() && (arg < 0 || earlier(g.best[b], g.best[arg])))
+        arg = b;
+    }
+    return arg;
+  }
+
+  /// The loop of resolve_group_exact() below, with the carrying out given: carry(ev) carries
+  /// out event ev (a copy of the member's best) and refreshes the best events it changes.
+  template <class Carry>
+  HSGPU_HD long group_event_loop(const GroupGraph &g, const int *members, int nmembers,
+                                 double t_end, long budget, Tally &tally, Carry carry)
+  {
+    long count = 0;
+    while (true) {
+      const int arg = group_earliest(g, members, nmembers);
+      if (arg < 0 || !(g.best[arg].t < t_end)) break;
+      if (count >= budget) {
+        tally.capped = 1;
+        break;
+      }
+      carry(g.best[arg]);
+      ++count;
+    }
+    return count;
+  }
+
   /// Carries out the events of the group members[0 .. nmembers) with t < t_end in time order
   /// and adds them to tally.  At most `budget` events: when one more is due, tally.capped is
   /// set and the group stops (the CPU backend's maxevents check, with budget = maxevents
@@ -117,20 +150,7 @@ namespace Collide {
                                     int nmembers, double t_end, long budget, Tally &tally)
   {
     for (int k = 0; k < nmembers; ++k) g.best[members[k]] = group_best_event(g, p, members[k]);
-    long count = 0;
-    while (true) {
-      int arg = -1;
-      for (int k = 0; k < nmembers; ++k) {
-        const int b = members[k];
-        if (g.best[b].t != Contact::never() && (arg < 0 || earlier(g.best[b], g.best[arg])))
-          arg = b;
-      }
-      if (arg < 0 || !(g.best[arg].t < t_end)) break;
-      if (count >= budget) {
-        tally.capped = 1;
-        break;
-      }
-      const Event ev = g.best[arg];
+    return group_event_loop(g, members, nmembers, t_end, budget, tally, [&](const Event ev) {
       if (ev.face >= 0) {
         process_wall(g.bodies[ev.index], ev.face, ev.t, p, tally);
         group_refresh_around(g, p, ev.index);
@@ -140,9 +160,7 @@ namespace Collide {
         group_refresh_around(g, p, e.i);
         group_refresh_around(g, p, e.j);
       }
-      ++count;
-    }
-    return count;
+    });
   }
 
   /// Where the CPU backend's cap stops a window whose groups were all resolved at once, each
