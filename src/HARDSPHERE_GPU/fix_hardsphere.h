@@ -327,7 +327,7 @@ class FixHardSphere : public Fix {
   int build(double drift_dt, bool collect_pushes);
   int step_resident(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   int step_gathered(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
-  bool share_inputs(long n, int nlocal, const Source &src, bool statics);
+  bool share_inputs(long n, int nlocal, const Source &src, bool statics, bool no_forces);
   void results_mpi(int nlocal, bool whole, double &moved);
   bool results_shared(int nlocal, bool whole, double &moved);
   HSGPU::Collide::ResidentBox resident_box() const;

@@ -58,7 +58,8 @@ constexpr int NRESULT = (int) (sizeof(GatheredResult) / sizeof(double));
    node).  Returns whether they are there; false on every rank where any rank could not (the
    atoms then go through MPI, and so for the rest of the run, with a note in the log).
    HSGPU_GATHER_MPI in the environment: never tried. */
-bool FixHardSphere::share_inputs(long n, int nlocal, const Source &src, bool statics)
+bool FixHardSphere::share_inputs(long n, int nlocal, const Source &src, bool statics,
+                                 bool no_forces)
 {
   if (!gath.ipc) return false;
   const int me = comm->me;
@@ -88,7 +89,7 @@ bool FixHardSphere::share_inputs(long n, int nlocal, const Source &src, bool sta
     try {
       const int idb = (int) sizeof(tagint);
       if (me == 0) {
-        resident->put_inputs(first, nlocal, src.x, src.v, src.f, src.room);
+        resident->put_inputs(first, nlocal, src.x, src.v, no_forces ? nullptr : src.f, src.room);
         if (friction_on) resident->put_spin(first, nlocal, src.omega);
         if (statics)
           resident->put_statics(first, nlocal, src.tlast, src.radius, src.rmass, src.type, src.id,
@@ -96,7 +97,7 @@ bool FixHardSphere::share_inputs(long n, int nlocal, const Source &src, bool sta
       } else {
         if (!peer) throw std::runtime_error("no device for the gathered step's inputs");
         peer->open(h);
-        peer->put(first, nlocal, src.x, src.v, src.f, src.room);
+        peer->put(first, nlocal, src.x, src.v, no_forces ? nullptr : src.f, src.room);
         if (friction_on) peer->put_spin(first, nlocal, src.omega);
         if (statics)
           peer->put_statics(first, nlocal, src.tlast, src.radius, src.rmass, src.type, src.id,
@@ -194,13 +195,16 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
     if (me == 0) moved += (double) size * per * (n - nlocal);
   };
   double *x0 = src.x, *v0 = src.v, *f0 = src.f, *w0 = src.omega;
+  // No force styles (the same on every rank): f stays where it is after the run's first step
+  // found it zero, as on one rank.
+  const bool no_forces = forces_none && forces_checked;
   // x, v and f straight into rank 0's device where every rank can reach it (one node, CUDA
   // IPC): each rank copies its own atoms there, all at once; else through rank 0's host.
-  const bool shared = share_inputs(n, nlocal, src, !same);
+  const bool shared = share_inputs(n, nlocal, src, !same, no_forces);
   if (!shared) {
     gather(x0, 3, MPI_DOUBLE, gath.all.x.data());
     gather(v0, 3, MPI_DOUBLE, gath.all.v.data());
-    gather(f0, 3, MPI_DOUBLE, gath.all.f.data());
+    if (!no_forces) gather(f0, 3, MPI_DOUBLE, gath.all.f.data());
   }
   if (friction_on && !shared) gather(w0, 3, MPI_DOUBLE, gath.all.omega.data());
   // The rest only where some rank's atoms moved in its arrays (the device keeps its copies),
@@ -220,6 +224,7 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
     HSGPU::Collide::ResidentReport report;
     HSGPU::Collide::ResidentAtoms a = resident_atoms(gath.all.view((int) n, friction_on), same);
     a.inputs_shared = shared;
+    a.zero_forces = no_forces;
     a.statics_shared = shared && !same;
     a.spin_shared = shared && friction_on;
     a.results = &gath.results;    // the atoms with events listed, to go back to their ranks
@@ -272,6 +277,7 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
   report.stats.groups = (long) r.groups;
   report.stats.windows = (long) r.windows;
   report.stats.repairs = (long) r.repairs;
+  if (forces_none && !forces_checked) forces_seen(r.amax);
   // The budget's checks on every rank, and bound_floor for the host should the device decline.
   check_budget(r.vmax2, r.amax, r.rmax);
   if (report.outcome == HSGPU::Collide::ResidentOutcome::done) {

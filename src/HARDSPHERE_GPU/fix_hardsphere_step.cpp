@@ -1283,8 +1283,9 @@ FixHardSphere::Source FixHardSphere::atom_source() const
 }
 
 /* The run's first device step with no force styles (forces_none) copied f up and found amax,
-   its largest acceleration: zero confirms that f stays zero; anything else (a style that sets
-   forces outside the hooks no_force_styles() knows) means f goes up every step. */
+   its largest acceleration (on several ranks rank 0's gathered step's, the same number on
+   every rank): zero confirms that f stays zero; anything else (a style that sets forces
+   outside the hooks no_force_styles() knows) means f goes up every step. */
 void FixHardSphere::forces_seen(double amax)
 {
   if (amax == 0.0) {
@@ -1292,8 +1293,9 @@ void FixHardSphere::forces_seen(double amax)
     return;
   }
   forces_none = false;
-  error->warning(FLERR, "Fix hardsphere: atoms have forces although no pair, bond or kspace "
-                        "style or force fix is defined; copying f to the device every step");
+  if (comm->me == 0)
+    error->warning(FLERR, "Fix hardsphere: atoms have forces although no pair, bond or kspace "
+                          "style or force fix is defined; copying f to the device every step");
 }
 
 /* The timers and counters of a resident step (one rank, or rank 0's gathered step as every

@@ -42,10 +42,11 @@ struct Snapshot {
 // state does not depend on the decomposition (create_atoms on a region numbers atoms per rank,
 // velocity create rescales with a sum over ranks).
 // extra: commands before the run; midway: where given, the run is split in two halves with
-// these commands between them.
+// these commands between them; gravity false: no fix gravity (no forces at all unless
+// pair_gravity).
 Snapshot run_on(MPI_Comm comm, const std::string &order, int steps, bool pair_gravity = false,
                 bool peratom = false, const std::vector<std::string> &extra = {},
-                const std::vector<std::string> &midway = {})
+                const std::vector<std::string> &midway = {}, bool gravity = true)
 {
   Lammps lmp(comm);
   lmp.commands({"units lj", "atom_style sphere", "atom_modify map array", "boundary p p f",
@@ -65,9 +66,9 @@ Snapshot run_on(MPI_Comm comm, const std::string &order, int steps, bool pair_gr
                 "variable vy atom 3.0*cos(7.77*id)", "variable vz atom 3.0*sin(3.3*id+1.1)",
                 "velocity all set v_vx v_vy v_vz", "comm_modify cutoff 3.5 vel yes"});
   if (pair_gravity) lmp.commands({"pair_style gravity 0.5 0.3", "pair_coeff * *"});
-  lmp.commands({"neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere",
-                "fix g all gravity 1.0 vector 0 0 -1",
-                "fix hs all hardsphere restitution 0.95 restitution/pair 1 2 0.8 wall zlo 0.9 "
+  lmp.commands({"neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere"});
+  if (gravity) lmp.commands({"fix g all gravity 1.0 vector 0 0 -1"});
+  lmp.commands({"fix hs all hardsphere restitution 0.95 restitution/pair 1 2 0.8 wall zlo 0.9 "
                 "wall zhi 1.0 order " +
                     order,
                 "compute p all pressure NULL virial", "thermo_style custom step c_p",
@@ -324,6 +325,40 @@ TEST(FixHardSphereMPI, GatheredStepFollowsChangedArrays)
                 np, cuda ? "CUDA" : "host reference", single.f[1], world.on_device);
   }
   MPI_Barrier(MPI_COMM_WORLD);
+}
+
+// The gathered step where nothing sets forces (no fix gravity): from the run's second step the
+// ranks do not copy f to rank 0's device (or gather it through MPI), which uses zeros.  On the
+// CUDA device, or the host reference where there is none, against one rank, bit for bit.
+TEST(FixHardSphereMPI, GatheredStepWithoutForcesAgreesWithSingleRank)
+{
+  const bool cuda = HSGPU::GPU::device_count() > 0;
+  int me = 0, np = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  for (const bool mpi : {false, true}) {
+    if (mpi) setenv("HSGPU_GATHER_MPI", "1", 1);
+    if (!cuda) setenv("HSGPU_RESIDENT_HOST", "1", 1);
+    const Snapshot world =
+        run_on(MPI_COMM_WORLD, "parallel gpu yes", 200, false, false, {}, {}, false);
+    if (!cuda) unsetenv("HSGPU_RESIDENT_HOST");
+    if (mpi) unsetenv("HSGPU_GATHER_MPI");
+    if (me == 0) {
+      const Snapshot single =
+          run_on(MPI_COMM_SELF, "serial", 200, false, false, {}, {}, false);
+      ASSERT_EQ(world.x.size(), single.x.size());
+      EXPECT_EQ(max_abs_diff(world.x, single.x), 0.0) << (mpi ? "through MPI" : "");
+      EXPECT_EQ(max_abs_diff(world.v, single.v), 0.0) << (mpi ? "through MPI" : "");
+      EXPECT_EQ(world.f[1], single.f[1]) << "collisions in total";
+      EXPECT_GT(single.f[1], 1000.0) << "enough collisions to mean anything";
+      EXPECT_GT(world.on_device, 190.0);
+      std::printf("[ MPI      ] %d ranks, gathered %s step without forces%s: %.0f collisions, "
+                  "%.0f of 200 steps on the device\n",
+                  np, cuda ? "CUDA" : "host reference", mpi ? " (through MPI)" : "",
+                  single.f[1], world.on_device);
+    }
+    MPI_Barrier(MPI_COMM_WORLD);
+  }
 }
 
 // The gathered step with a group other than all: each rank packs its group's atoms, the

@@ -40,10 +40,13 @@ namespace Collide {
         report = ResidentReport();
         const int n = a.n;
         const double dt = p.dt;
+        // The forces of atom i (zeros where the caller says there are none: f is not read).
+        static const double none[3] = {0.0, 0.0, 0.0};
+        auto force = [&](int i) { return a.zero_forces ? none : a.f + 3 * i; };
         // The step budget's maxima (the fix's step_budget()).
         for (int i = 0; i < n; ++i) {
           report.vmax2 = std::max(report.vmax2, speed2(a.v + 3 * i));
-          report.amax = std::max(report.amax, accel_magnitude(a.f + 3 * i, a.ftm2v, a.rmass[i]));
+          report.amax = std::max(report.amax, accel_magnitude(force(i), a.ftm2v, a.rmass[i]));
           report.rmax = std::max(report.rmax, a.radius[i]);
         }
         const double floor =
@@ -53,7 +56,7 @@ namespace Collide {
         for (int i = 0; i < n; ++i) {
           const long id = a.id_bytes == 8 ? (long) static_cast<const long long *>(a.id)[i]
                                           : (long) static_cast<const int *>(a.id)[i];
-          atoms[i] = start_body(a.x + 3 * i, a.v + 3 * i, a.f + 3 * i, a.radius[i], a.rmass[i],
+          atoms[i] = start_body(a.x + 3 * i, a.v + 3 * i, force(i), a.radius[i], a.rmass[i],
                                 a.tlast[i], id, a.type[i], i, dt, a.ftm2v);
           if (a.omega)
             for (int d = 0; d < 3; ++d) atoms[i].omega[d] = a.omega[3 * i + d];

@@ -170,7 +170,8 @@ namespace GPU {
   /// Copies count atoms' x, v and f (3 doubles each) from the host into atoms [first, first +
   /// count) of the device arrays dst[0 .. 2] (this process's, or another's opened by CUDA IPC)
   /// on `stream`, each source array page-locked in place by locks[0 .. 2] for `room` atoms
-  /// (what the arrays hold, at least count), and waits.
+  /// (what the arrays hold, at least count), and waits.  A null source is not copied (f where
+  /// there are no forces).
   inline void copy_xvf_to_device(double *const dst[3], long first, long count, const double *x,
                                  const double *v, const double *f, HostRangeLock locks[3],
                                  bool &locking, cudaStream_t stream, const char *what,
@@ -181,6 +182,7 @@ namespace GPU {
     const size_t bytes = (size_t) 3 * count * sizeof(double);
     const size_t held = (size_t) 3 * (room > count ? room : count) * sizeof(double);
     for (int k = 0; k < 3; ++k) {
+      if (!src[k]) continue;
       locks[k].keep(src[k], bytes, locking, held);
       cuda_check(cudaMemcpyAsync(dst[k] + 3 * first, src[k], bytes, cudaMemcpyDefault, stream),
                  what);

@@ -1290,13 +1290,14 @@ namespace Collide {
       kept = false;    // until this step is done
       cuda_check(cudaEventRecord(ev_up0, stream), "cudaEventRecord");
       for (int k = 0; k < NLOCKED; ++k) {
-        if (a.inputs_shared && k < FIRST_KEPT) continue;    // x, v, f: in place already
-        if (a.statics_shared && k >= FIRST_KEPT) continue;  // the rest: in place already
-        if (k == 2 && a.zero_forces) {                      // no forces: zeros, not copied
-          arrays[k].d.reserve(arrays[k].bytes + 8, "cudaMalloc(atoms)");
+        if (k == 2 && a.zero_forces) {    // no forces: zeros, not copied
+          // (Where the buffers are shared, share_inputs() sized them: no new allocation.)
+          if (!a.inputs_shared) arrays[k].d.reserve(arrays[k].bytes + 8, "cudaMalloc(atoms)");
           cuda_check(cudaMemsetAsync(arrays[k].d.ptr, 0, arrays[k].bytes, stream), "cudaMemset");
           continue;
         }
+        if (a.inputs_shared && k < FIRST_KEPT) continue;    // x, v, f: in place already
+        if (a.statics_shared && k >= FIRST_KEPT) continue;  // the rest: in place already
         locked[k].keep(arrays[k].h, arrays[k].bytes, locking);
         if (locked[k].p) ++prof.locked;
         if (keep && k >= FIRST_KEPT) continue;
