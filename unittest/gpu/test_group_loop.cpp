@@ -80,10 +80,11 @@ long resolve_like_device(const WindowWork &w, const Params &p, Tally &tally)
     auto pass = [&](int last_group, int capped_group, long capped_budget) {
       bodies = start;
       const GroupGraph graph{bodies.data(), w.edges, adj_start.data(), adj.data(), best.data()};
+      // The kept pair times (each group finds those of its own edges first).
+      std::vector<double> et(kept_edge_times ? w.nedges : 0, HSGPU::Contact::never());
       for (int g = 0; g <= last_group; ++g) {
         Tally t;
         const int lo = w.group_start[g], hi = w.group_start[g + 1];
-        std::vector<double> et(w.nedges, HSGPU::Contact::never());
         if (hi > lo && kept_edge_times)
           resolve_group_cached(graph, p, et, w.group_members + lo, hi - lo, w.t_end,
                                g == capped_group ? capped_budget : budget, t);

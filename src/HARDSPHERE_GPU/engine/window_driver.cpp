@@ -312,7 +312,7 @@ namespace Collide {
   {
     isb.assign(nb + nf, 0);
     for (int k = 0; k < nf; ++k) isb[uf.find(nb + k)] = 1;
-    group_by_root(uf, nb, &isb, gstart, gmembers, fill, nlocal_groups, bscratch[4]);
+    group_by_root(uf, nb, &isb, gstart, gmembers, fill, nlocal_groups, group_pos);
   }
 
   /* A boundary body's gathered entry: its body (nbody values), the number of its window
@@ -599,8 +599,7 @@ namespace Collide {
     // shift) and those with a lower one (their IDs, for the completeness of a gather to the
     // neighbouring ranks).
     // (Scratch kept between calls: these span all nb bodies, every window that gathers.)
-    std::vector<int> &pstart = bscratch[0], &lstart = bscratch[1], &pos = bscratch[2],
-                     &lpos = bscratch[3];
+    std::vector<int> &pos = ppos;
     pstart.assign(nb + 1, 0);
     lstart.assign(nb + 1, 0);
     for (const Edge &e : wedges) {
@@ -664,7 +663,7 @@ namespace Collide {
       UnionFind &guf = gunion;
       guf.reset((int) gentry.size());
       for (const Edge &e : gedges) guf.unite(e.i, e.j);
-      group_by_root(guf, (int) gentry.size(), nullptr, gstart2, gmembers2, fill, ngr, bscratch[4]);
+      group_by_root(guf, (int) gentry.size(), nullptr, gstart2, gmembers2, fill, ngr, group_pos);
     };
     int ngr = 0;
     // To the neighbouring ranks first (more than two ranks: on two, that is everyone), if

@@ -251,8 +251,11 @@ namespace Collide {
     std::vector<char> gmissing;
     std::vector<size_t> gentry;    // per gathered body: its entry's offset in recv
     std::vector<std::pair<long, size_t>> gorder;    // (ID, entry offset) in ID order
-    std::vector<int> bscratch[5];                    // scratch of resolve_boundary() and the
-    std::vector<double> bpartners, blows;            // grouping, kept between calls
+    // Scratch kept between calls: resolve_boundary()'s partner lists (offsets and fill
+    // positions of the higher- and lower-ID partners, the lists) and group_by_root()'s fill
+    // positions.
+    std::vector<int> pstart, lstart, ppos, lpos, group_pos;
+    std::vector<double> bpartners, blows;
     std::vector<double> gotbuf;                      // what Exchange::to_ranks() brings
     std::vector<char> gmark;                         // roots of this rank's boundary groups
     std::vector<long> idkey;       // gathered bodies by ID (open addressing; 0: empty)

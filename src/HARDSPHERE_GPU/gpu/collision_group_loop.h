@@ -84,15 +84,17 @@ namespace Collide {
       }
     }
     if (arg < 0) return e;
-    for (int k = tie ? lo : hi; k < hi; ++k) {    // ties: every edge at the least time, in order
-      const int q = g.adj[k];
-      if ((g.joined && !g.joined[q]) || et[q] != least) continue;
+    auto take = [&](int q) {
       const Event c = pair_event_at(g.bodies, g.edges, q, least);
       if (e.t == never || earlier(c, e)) e = c;
-    }
+    };
     if (!tie) {
-      const Event c = pair_event_at(g.bodies, g.edges, arg, least);
-      if (e.t == never || earlier(c, e)) e = c;
+      take(arg);
+    } else {    // every edge at the least time, in adjacency order
+      for (int k = lo; k < hi; ++k) {
+        const int q = g.adj[k];
+        if (!(g.joined && !g.joined[q]) && et[q] == least) take(q);
+      }
     }
     return e;
   }
