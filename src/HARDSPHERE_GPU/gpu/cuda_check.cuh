@@ -149,6 +149,19 @@ namespace GPU {
       locked_pages().push_back(span);
     }
 
+    /// The device's address of `host`, inside the range held (which the driver maps into the
+    /// device's address space); null where nothing is held or the driver gives none.
+    template <class T> T *device_address(T *host) const
+    {
+      void *base = nullptr;
+      if (!p || cudaHostGetDevicePointer(&base, p, 0) != cudaSuccess) {
+        (void) cudaGetLastError();
+        return nullptr;
+      }
+      return reinterpret_cast<T *>(static_cast<char *>(base) +
+                                   (reinterpret_cast<char *>(host) - static_cast<char *>(p)));
+    }
+
     void release()
     {
       if (p) {

@@ -96,22 +96,35 @@ namespace Collide {
       }
     }
 
+    /// Carries out event ev on lane 0 (tally is lane 0's) and gives every lane its bodies: i,
+    /// and j for a pair (else -1).  Ends with the warp synchronized.
+    __device__ inline void process_event(const GroupGraph &g, const Params &p, const Event &ev,
+                                         int lane, Tally &tally, int &i, int &j)
+    {
+      i = ev.index;
+      j = -1;
+      if (ev.face >= 0) {
+        if (lane == 0) process_wall(g.bodies[i], ev.face, ev.t, p, tally);
+      } else {
+        const Edge &e = g.edges[ev.index];
+        i = e.i;
+        j = e.j;
+        if (lane == 0) process_pair(g.bodies[i], g.bodies[j], e, ev.t, p, tally);
+      }
+      __syncwarp();
+    }
+
     /// Carries out event ev (lane 0) and refreshes the best events around its bodies (the
     /// warp); tally is lane 0's.  Every lane must have read what it needs of best[] before.
     __device__ inline void carry_out(const GroupGraph &g, const Params &p, const Event &ev,
                                      int lane, Tally &tally)
     {
-      if (ev.face >= 0) {
-        if (lane == 0) process_wall(g.bodies[ev.index], ev.face, ev.t, p, tally);
+      int i, j;
+      process_event(g, p, ev, lane, tally, i, j);
+      refresh_around(g, p, i, lane);
+      if (j >= 0) {
         __syncwarp();
-        refresh_around(g, p, ev.index, lane);
-      } else {
-        const Edge &e = g.edges[ev.index];
-        if (lane == 0) process_pair(g.bodies[e.i], g.bodies[e.j], e, ev.t, p, tally);
-        __syncwarp();
-        refresh_around(g, p, e.i, lane);
-        __syncwarp();
-        refresh_around(g, p, e.j, lane);
+        refresh_around(g, p, j, lane);
       }
       __syncwarp();
     }
@@ -163,16 +176,8 @@ namespace Collide {
     __device__ inline void carry_out_cached(const GroupGraph &g, const Params &p, double *et,
                                             const Event &ev, int lane, Tally &tally)
     {
-      int i = ev.index, j = -1;
-      if (ev.face >= 0) {
-        if (lane == 0) process_wall(g.bodies[i], ev.face, ev.t, p, tally);
-      } else {
-        const Edge &e = g.edges[ev.index];
-        i = e.i;
-        j = e.j;
-        if (lane == 0) process_pair(g.bodies[i], g.bodies[j], e, ev.t, p, tally);
-      }
-      __syncwarp();
+      int i, j;
+      process_event(g, p, ev, lane, tally, i, j);
       edge_times_around(g, p, et, i, j, lane);
       __syncwarp();
       bests_around(g, p, et, i, j, lane);

@@ -121,28 +121,6 @@ namespace Collide {
       return v ? std::atof(v) : fallback;
     }
 
-    /// HSGPU_RESIDENT_DIRECT=0 (a tuning aid): the changed atoms go back by whole copies of x
-    /// and v instead of the device's writes into the caller's page-locked arrays.
-    bool direct_writes()
-    {
-      static const bool on = env_number("HSGPU_RESIDENT_DIRECT", 1.0) != 0.0;
-      return on;
-    }
-
-    /// The device's address of `host` (inside the range `lock` holds page-locked, which the
-    /// driver maps into the device's address space), into `dev`; false where it has none.
-    bool mapped(const HostRangeLock &lock, void *host, double *&dev)
-    {
-      void *base = nullptr;
-      if (!lock.p || cudaHostGetDevicePointer(&base, lock.p, 0) != cudaSuccess) {
-        (void) cudaGetLastError();
-        return false;
-      }
-      dev = reinterpret_cast<double *>(static_cast<char *>(base) +
-                                       (static_cast<char *>(host) - static_cast<char *>(lock.p)));
-      return true;
-    }
-
     double seconds_since(Clock::time_point t)
     {
       return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
@@ -1405,14 +1383,14 @@ namespace Collide {
       // Or the device writes the changed atoms straight into the page-locked arrays (mapped
       // into its address space): only their bytes cross the link (HSGPU_RESIDENT_DIRECT=0: the
       // whole copies).
-      double *hx = nullptr, *hv = nullptr;
-      if (whole && !spin && direct_writes() && mapped(locked[0], a.x, hx) &&
-          mapped(locked[1], a.v, hv)) {
+      static const bool direct = env_number("HSGPU_RESIDENT_DIRECT", 1.0) != 0.0;
+      double *hx = whole && !spin && direct ? locked[0].device_address(a.x) : nullptr;
+      double *hv = hx ? locked[1].device_address(a.v) : nullptr;
+      if (hx && hv) {
         ++prof.direct;
         if (changed > 0) {
-          const long threads = 6L * changed;
-          atom_write_direct_kernel<<<(unsigned) ((threads + BLOCK - 1) / BLOCK), BLOCK, 0,
-                                     stream>>>(d_sums.as<AtomResult>(), changed, hx, hv);
+          atom_write_direct_kernel<<<nblocks(6L * changed), BLOCK, 0, stream>>>(
+              d_sums.as<AtomResult>(), changed, hx, hv);
           launched("atom_write_direct_kernel");
         }
       } else if (whole) {
