@@ -394,6 +394,15 @@ void FixHardSphere::parse(int narg, char **arg)
       else
         error->all(FLERR, "Fix hardsphere: gpu/gather must be yes or no, got {}", arg[iarg + 1]);
       iarg += 2;
+    } else if (strcmp(kw, "gpu/keep") == 0) {
+      need(1, kw);
+      if (strcmp(arg[iarg + 1], "yes") == 0)
+        gpu_keep = 1;
+      else if (strcmp(arg[iarg + 1], "no") == 0)
+        gpu_keep = 0;
+      else
+        error->all(FLERR, "Fix hardsphere: gpu/keep must be yes or no, got {}", arg[iarg + 1]);
+      iarg += 2;
     } else if (strcmp(kw, "device") == 0) {
       need(1, kw);
       if (strcmp(arg[iarg + 1], "auto") == 0) {
@@ -494,6 +503,7 @@ void FixHardSphere::init()
                update->dt);
   check_other_fixes();
   forces_none = no_force_styles();
+  motion_known = motion_fixes_known(motion_why);
 
   // Friction turns spin into translation through the moment of inertia k m r^2: k follows the
   // integrator that moves these atoms' omega (fix nve/sphere and the nvt, npt, nph/sphere

@@ -169,6 +169,7 @@ class FixHardSphere : public Fix {
     double t_comm = 0.0;    // seconds in the communication above (waits for other ranks too)
     double forwards = 0.0;  // rounds of gathers passing entries on (WindowStats::forwards)
     bigint declined[5] = {0, 0, 0, 0, 0};                  // steps handed back, by ResidentOutcome
+    bigint moved = 0, checked = 0;    // device steps with x, v moved there, or checked (gpu/keep)
   } run_sum;
 
   // --- per-step work ----------------------------------------------------------------------
@@ -233,6 +234,23 @@ class FixHardSphere : public Fix {
   bool forces_checked = false;    // this run's first device step found f zero
   bool no_force_styles() const;
   void forces_seen(double amax);
+  // gpu/keep (fix_hardsphere_motion.cpp): between device steps the device moves its own copies
+  // of x and v as LAMMPS's integrator moves the atoms, instead of receiving them
+  // (ResidentAtoms::motion), where one rank runs the whole step and nothing but fix nve or
+  // nve/sphere of every atom changes x or v (motion_fixes_known(), at init); checked against
+  // the copied arrays on the run's first such step and after every MOTION_AUDIT moved steps.
+  int gpu_keep = 1;
+  enum MotionWay { MOTION_UNKNOWN = -1, MOTION_PLAIN = 0, MOTION_FUSED = 1, MOTION_OFF = 2 };
+  bool motion_known = false;           // the fixes allow it (init())
+  std::string motion_why;              // else why not, for the run's log
+  int motion_way = MOTION_UNKNOWN;     // the integrator's rounding, as this run's check found it
+  bigint motion_builds = -1;           // neighbor->ncalls at the last device step
+  static constexpr int MOTION_AUDIT = 100;    // steps moved on the device between checks
+  int motion_unchecked = 0;            // steps moved on the device since the last check
+  bool motion_fixes_known(std::string &why) const;
+  HSGPU::Collide::KeptMotion kept_motion(bool same) const;
+  void motion_seen(const HSGPU::Collide::ResidentReport &report);
+  std::string motion_summary() const;
   // gpu yes on several ranks with gpu/gather yes: each step's atoms (of the group) gathered on
   // rank 0, whose `resident` step runs it (step_gathered(); the same on every rank).
   bool gather_step = false;

@@ -1060,6 +1060,8 @@ void FixHardSphere::setup(int vflag)
   if (peer) peer->forget_host_arrays();
   resident_same = false;
   forces_checked = false;
+  motion_way = MOTION_UNKNOWN;    // each run checks the integrator's rounding again
+  motion_unchecked = 0;
   // The virial and the collision count are the last step's (or the restart file's): the
   // run's first thermo output shows the collisions' share of the pressure, as every later
   // one does.
@@ -1354,7 +1356,10 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
       // No force styles: f (zero) stays on the host after the run's first device step found
       // it zero.
       a.zero_forces = forces_none && forces_checked;
+      // gpu/keep: x and v moved on the device where nothing else changed them.
+      a.motion = kept_motion(same);
       resident->run_atoms(a, box, step_params(), wsettings, mine, report);
+      motion_seen(report);
       if (forces_none && !forces_checked) forces_seen(report.amax);
       // The budget's checks, and bound_floor for the host should the device decline.
       check_budget(report.vmax2, report.amax, report.rmax);
@@ -1567,5 +1572,7 @@ void FixHardSphere::post_run()
                                : std::string(),
                    back(ResidentOutcome::overlap), back(ResidentOutcome::excursion),
                    back(ResidentOutcome::capped), back(ResidentOutcome::small_box));
+    if (comm->nprocs == 1 && igroup == 0)
+      utils::logmesg(lmp, "Fix hardsphere: {}\n", motion_summary());
   }
 }

@@ -4,6 +4,7 @@
 // the serial loop's tallies; run_atoms() writing the atoms' arrays, or listing the atoms with
 // events (ResidentAtoms::results) with the same values; and its declines.
 #include "common/collision_world.h"
+#include "common/kept_motion.h"
 
 #include <gtest/gtest.h>
 
@@ -188,4 +189,11 @@ TEST(ResidentStepHost, DeclinesWhatItCannotFinish)
   for (int d = 0; d < 3; ++d) small.prd[d] = 0.9;
   EXPECT_EQ(outcome(small, 1000000), ResidentOutcome::small_box);
   EXPECT_EQ(outcome(w, 1), ResidentOutcome::capped);
+}
+
+// The host's reference step keeps its own copies of x and v as the CUDA step does
+// (common/kept_motion.h), so that fix hardsphere's gpu/keep runs and is tested without a device.
+TEST(ResidentStepHost, KeptMotionEqualsCopiesBitwise)
+{
+  check_kept_motion([] { return make_host_resident_step(); }, false);
 }

@@ -985,6 +985,8 @@ TEST(FixHardSphere, BadInputStopsWithANamedError)
               HasSubstr("gpu must be yes or no, got maybe"));
   EXPECT_THAT(first_error({"fix hs all hardsphere gpu yes gpu/gather 1"}),
               HasSubstr("gpu/gather must be yes or no, got 1"));
+  EXPECT_THAT(first_error({"fix hs all hardsphere gpu yes gpu/keep sometimes"}),
+              HasSubstr("gpu/keep must be yes or no, got sometimes"));
   EXPECT_THAT(first_error({"fix hs all hardsphere device -2"}),
               HasSubstr("device must be auto or >= 0"));
   // The timestep: zero or negative is named (not a NaN pressure, not an overlap later on).
@@ -1214,4 +1216,83 @@ TEST(FixHardSphere, GpuRequestFallsBackToCpuWithoutDevice)
   EXPECT_GT(coll[0], 100.0);
   EXPECT_EQ(coll[0], coll[1]);
   EXPECT_EQ(max_abs_diff(x[0], x[1]), 0.0);
+}
+
+// gpu/keep (fix_hardsphere_motion.cpp): between whole device steps the device moves its own
+// copies of x and v as fix nve/sphere moves the atoms instead of receiving them.  On the CUDA
+// device where there is one, else with the host's reference resident step in the device step's
+// place (HSGPU_RESIDENT_HOST; it keeps and moves its copies as the CUDA step does): a fluid
+// without forces and one under gravity, against gpu no and gpu/keep no, bit for bit; the
+// run's log line says on how many steps x and v were moved there and checked (the first
+// step with kept copies and after every 100 moved steps).  A fix that may
+// change v (fix momentum) turns it off, with the reason in the log.
+TEST(FixHardSphere, KeptMotionEqualsCopiedArrays)
+{
+  const bool cuda = HSGPU::GPU::device_count() > 0;
+  const std::string log = "test_fix_hardsphere_kept_motion.log";
+  const std::vector<std::string> setup = {"units lj",
+                                          "atom_style sphere",
+                                          "atom_modify map array",
+                                          "boundary p p p",
+                                          "lattice sc 0.5 origin 0.5 0.5 0.5",
+                                          "region box block 0 8 0 8 0 8",
+                                          "create_box 1 box",
+                                          "create_atoms 1 box",
+                                          "set type 1 diameter 1.0",
+                                          "set type 1 mass 1.0",
+                                          "velocity all create 1.0 4928459 loop geom",
+                                          "comm_modify cutoff 2.5 vel yes",
+                                          "neigh_modify every 1 delay 0 check yes",
+                                          "fix 1 all nve/sphere",
+                                          "timestep 0.02"};
+  struct Case {
+    const char *name, *extra;
+    bool moved;
+  };
+  for (const Case &c : {Case{"no forces", "", true}, Case{"gravity", "fix g all gravity 0.5 vector 0 0 -1", true},
+                        Case{"fix momentum", "fix m all momentum 5 linear 1 1 1", false}}) {
+    std::vector<double> x[3], v[3];
+    double coll[3], done[3];
+    std::string text;
+    const char *fixes[3] = {"fix hs all hardsphere reach 0.5",
+                            "fix hs all hardsphere reach 0.5 gpu yes gpu/keep no",
+                            "fix hs all hardsphere reach 0.5 gpu yes"};
+    for (int k = 0; k < 3; ++k) {
+      if (!cuda) setenv("HSGPU_RESIDENT_HOST", "1", 1);
+      Lammps lmp;
+      lmp.commands(setup);
+      if (*c.extra) lmp.command(c.extra);
+      lmp.commands({fixes[k], "log " + log, "run 400", "log none"});
+      if (!cuda) unsetenv("HSGPU_RESIDENT_HOST");
+      x[k] = lmp.gather("x", 3);
+      v[k] = lmp.gather("v", 3);
+      coll[k] = lmp.fix_vector("hs", 1);
+      done[k] = lmp.fix_vector("hs", 17);    // f_hs[18]: steps carried out on the device
+      if (k == 2) text = hsgpu_test::file_text(log);
+    }
+    for (int k = 1; k < 3; ++k) {
+      EXPECT_EQ(max_abs_diff(x[0], x[k]), 0.0) << c.name << ", " << fixes[k];
+      EXPECT_EQ(max_abs_diff(v[0], v[k]), 0.0) << c.name << ", " << fixes[k];
+      EXPECT_EQ(coll[0], coll[k]) << c.name;
+    }
+    EXPECT_GT(coll[0], 300.0) << c.name << ": enough collisions to mean anything";
+    EXPECT_GT(done[2], 10.0) << c.name << ": steps on the device";
+    const size_t at = text.find("Fix hardsphere: x and v ");
+    ASSERT_NE(at, std::string::npos) << text;
+    const std::string line = text.substr(at, text.find('\n', at) - at);
+    if (c.moved) {
+      int moved = 0, checked = 0;
+      ASSERT_EQ(std::sscanf(line.c_str(), "Fix hardsphere: x and v moved on the device on %d steps (rounded as fix nve rounds them, checked against LAMMPS's on %d)", &moved, &checked), 2)
+          << line;
+      EXPECT_GT(moved, 101) << c.name;
+      // The run's first step with kept copies, and again after every 100 moved steps.
+      EXPECT_GE(checked, 1 + (moved - 1) / 100) << c.name;
+      EXPECT_LE(moved + checked, done[2]) << c.name;
+    } else {
+      EXPECT_THAT(line, HasSubstr("copied to the device every step (fix m (momentum) may change x or v)"));
+    }
+    std::printf("[ MOTION   ] %s: %.0f collisions, %.0f of 400 steps on the %s: %s\n", c.name,
+                coll[0], done[2], cuda ? "CUDA device" : "host reference", line.c_str());
+  }
+  std::remove(log.c_str());
 }

@@ -133,36 +133,59 @@ TEST(FixHardSphereGpu, FluidSceneEqualsCpu)
 }
 
 // With no force styles the atoms' f stays on the host after the run's first device step
-// (found zero there): 48 instead of 72 bytes per atom go up on the later steps.  The log line
-// of the run gives the mean per step.
+// (found zero there): 48 instead of 72 bytes per atom go up on the later steps.  With gpu/keep
+// (the default) x and v stay on the device too, moved there as fix nve/sphere moves them, on
+// every step but the first, the run's first check and the steps after a reneighboring.
+// The log lines of the run give the mean per step and the steps of each kind.
 TEST(FixHardSphereGpu, NoForcesStayOnTheHost)
 {
   if (HSGPU::GPU::device_count() == 0) GTEST_SKIP() << "no CUDA device on this machine";
   const std::string log = "test_fix_hardsphere_gpu_noforces.log";
-  for (const bool gravity : {false, true}) {
-    Lammps lmp;
-    lmp.commands({"units lj", "atom_style sphere", "atom_modify map array", "boundary p p p",
-                  "lattice sc 0.763943726841098", "region box block 0 16 0 16 0 16",
-                  "create_box 1 box", "create_atoms 1 box", "set type 1 diameter 1.0",
-                  "set type 1 mass 1.0", "velocity all create 1.0 87287 dist gaussian loop geom",
-                  "comm_modify cutoff 2.5 vel yes", "neigh_modify every 1 delay 0 check yes",
-                  "fix 1 all nve/sphere", "timestep 0.01", "fix hs all hardsphere reach 0.5 gpu yes"});
-    if (gravity) lmp.command("fix g all gravity 0.1 vector 0 0 -1");
-    lmp.commands({"log " + log, "run 20", "log none"});
-    const double steps = 20.0, n = 4096.0;
-    ASSERT_EQ(lmp.fix_vector("hs", 17), steps) << "every step carried out on the device";
-    const std::string text = hsgpu_test::file_text(log);
-    const size_t at = text.find(" MB per step up");
-    ASSERT_NE(at, std::string::npos) << text;
-    const size_t from = text.rfind(' ', at - 1) + 1;
-    const double per_atom = std::stod(text.substr(from, at - from)) * 1e6 / n;
-    // The first step copies every array (104 bytes per atom), the later ones x and v, and f
-    // only under gravity.
-    const double expect = (104.0 + (steps - 1) * (gravity ? 72.0 : 48.0)) / steps;
-    EXPECT_NEAR(per_atom, expect, 0.01 * expect) << (gravity ? "gravity" : "no forces");
-    std::printf("[ GPU      ] %s: %.4g bytes per atom and step up\n",
-                gravity ? "gravity" : "no forces", per_atom);
-  }
+  for (const bool keep : {false, true})
+    for (const bool gravity : {false, true}) {
+      Lammps lmp;
+      lmp.commands({"units lj", "atom_style sphere", "atom_modify map array", "boundary p p p",
+                    "lattice sc 0.763943726841098", "region box block 0 16 0 16 0 16",
+                    "create_box 1 box", "create_atoms 1 box", "set type 1 diameter 1.0",
+                    "set type 1 mass 1.0", "velocity all create 1.0 87287 dist gaussian loop geom",
+                    "comm_modify cutoff 2.5 vel yes", "neigh_modify every 1 delay 0 check yes",
+                    "fix 1 all nve/sphere", "timestep 0.01",
+                    std::string("fix hs all hardsphere reach 0.5 gpu yes gpu/keep ") +
+                        (keep ? "yes" : "no")});
+      if (gravity) lmp.command("fix g all gravity 0.1 vector 0 0 -1");
+      lmp.commands({"log " + log, "run 20", "log none"});
+      const double steps = 20.0, n = 4096.0;
+      ASSERT_EQ(lmp.fix_vector("hs", 17), steps) << "every step carried out on the device";
+      const std::string text = hsgpu_test::file_text(log);
+      const size_t at = text.find(" MB per step up");
+      ASSERT_NE(at, std::string::npos) << text;
+      const size_t from = text.rfind(' ', at - 1) + 1;
+      const double per_atom = std::stod(text.substr(from, at - from)) * 1e6 / n;
+      int moved = 0, checked = 0;
+      const size_t line = text.find("Fix hardsphere: x and v moved on the device on ");
+      if (keep) {
+        ASSERT_NE(line, std::string::npos) << text;
+        ASSERT_EQ(std::sscanf(text.c_str() + line,
+                              "Fix hardsphere: x and v moved on the device on %d steps (rounded "
+                              "as fix nve rounds them, checked against LAMMPS's on %d)",
+                              &moved, &checked),
+                  2)
+            << text.substr(line, 200);
+        EXPECT_GT(moved, 5) << "most steps between reneighborings";
+        EXPECT_EQ(checked, 1) << "the run's first step with kept copies";
+      } else {
+        EXPECT_EQ(line, std::string::npos);
+      }
+      // The first step copies every array (104 bytes per atom), the later ones x and v unless
+      // they were moved on the device, and f only under gravity.
+      const double f = gravity ? 24.0 : 0.0;
+      const double expect = (104.0 + (steps - 1 - moved) * (48.0 + f) + moved * f) / steps;
+      EXPECT_NEAR(per_atom, expect, 0.01 * expect) << (gravity ? "gravity" : "no forces");
+      std::printf("[ GPU      ] %s, gpu/keep %s: %.4g bytes per atom and step up (%d steps moved "
+                  "on the device, %d checked)\n",
+                  gravity ? "gravity" : "no forces", keep ? "yes" : "no", per_atom, moved,
+                  checked);
+    }
   std::remove(log.c_str());
 }
 

@@ -16,10 +16,12 @@
 
 #include "core/collision_step.h"
 #include "core/event_order.h"
+#include "core/verlet_motion.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 
 namespace HSGPU {
 namespace Collide {
@@ -43,9 +45,22 @@ namespace Collide {
         // The forces of atom i (zeros where the caller says there are none: f is not read).
         static const double none[3] = {0.0, 0.0, 0.0};
         auto force = [&](int i) { return a.zero_forces ? none : a.f + 3 * i; };
+        // x and v: the caller's, or the kept copies moved as the integrator moves the caller's
+        // (ResidentAtoms::motion), as the CUDA step does.
+        const KeptMotion &m = a.motion;
+        const bool own = !a.results && !a.omega && !a.inputs_shared;
+        const bool have = motion_kept && own && kept_x == a.x && kept_v == a.v && kept_n == n;
+        motion_kept = false;
+        report.motion = have ? m.use : MotionUse::copy;
+        if (report.motion == MotionUse::check) compare_motion(a, force, report);
+        if (report.motion == MotionUse::predict)
+          for (int i = 0; i < n; ++i)
+            move_between_steps(&kx[3 * i], &kv[3 * i], force(i), a.rmass[i], m.move, m.fused);
+        const bool moved = report.motion == MotionUse::predict;
+        const double *xin = moved ? kx.data() : a.x, *vin = moved ? kv.data() : a.v;
         // The step budget's maxima (the fix's step_budget()).
         for (int i = 0; i < n; ++i) {
-          report.vmax2 = std::max(report.vmax2, speed2(a.v + 3 * i));
+          report.vmax2 = std::max(report.vmax2, speed2(vin + 3 * i));
           report.amax = std::max(report.amax, accel_magnitude(force(i), a.ftm2v, a.rmass[i]));
           report.rmax = std::max(report.rmax, a.radius[i]);
         }
@@ -56,16 +71,22 @@ namespace Collide {
         for (int i = 0; i < n; ++i) {
           const long id = a.id_bytes == 8 ? (long) static_cast<const long long *>(a.id)[i]
                                           : (long) static_cast<const int *>(a.id)[i];
-          atoms[i] = start_body(a.x + 3 * i, a.v + 3 * i, force(i), a.radius[i], a.rmass[i],
+          atoms[i] = start_body(xin + 3 * i, vin + 3 * i, force(i), a.radius[i], a.rmass[i],
                                 a.tlast[i], id, a.type[i], i, dt, a.ftm2v);
           if (a.omega)
             for (int d = 0; d < 3; ++d) atoms[i].omega[d] = a.omega[3 * i + d];
-          bound[i] = drift_bound(a.v + 3 * i, dt, floor, 0.0, a.reach);
+          bound[i] = drift_bound(vin + 3 * i, dt, floor, 0.0, a.reach);
         }
         report.t_search = seconds_since(t0);
         Tally t;
         if (!step(atoms, box, p, s, t, report)) return;
         tally.add(t);
+        // The kept copies: the step's x and v, the changed atoms' written below.
+        const bool keep = m.keep && own;
+        if (keep && !moved) {
+          kx.assign(a.x, a.x + 3 * (size_t) n);
+          kv.assign(a.v, a.v + 3 * (size_t) n);
+        }
         // The results where the caller wants them (the CUDA step's order: increasing index).
         const auto t1 = std::chrono::steady_clock::now();
         if (a.results) a.results->clear();
@@ -93,12 +114,22 @@ namespace Collide {
           for (int d = 0; d < 3; ++d) {
             a.x[3 * i + d] = xe[d];
             a.v[3 * i + d] = b.v[d];
+            if (keep) {
+              kx[3 * i + d] = xe[d];
+              kv[3 * i + d] = b.v[d];
+            }
           }
           if (a.omega)
             for (int d = 0; d < 3; ++d) a.omega[3 * i + d] = b.omega[d];
         }
+        motion_kept = keep;
+        kept_x = a.x;
+        kept_v = a.v;
+        kept_n = n;
         report.t_resolve += seconds_since(t1);
       }
+
+      void forget_host_arrays() override { motion_kept = false; }
 
       void run(Body *bodies, const double *bnd, int n, const ResidentBox &box, const Params &p,
                const WindowSettings &s, Tally &tally, ResidentReport &report) override
@@ -117,12 +148,39 @@ namespace Collide {
       }
 
      private:
+      // Copies of x and v as the last done run_atoms() with KeptMotion::keep left them, of the
+      // caller's arrays kept_x, kept_v of kept_n atoms.
+      bool motion_kept = false;
+      std::vector<double> kx, kv;
+      const double *kept_x = nullptr, *kept_v = nullptr;
+      int kept_n = -1;
       std::vector<Body> atoms;    // the step's bodies, resolved in place
       std::vector<double> bound;
       std::vector<Edge> edges;
       WindowDriver driver;
       Resolver resolver;
       std::unique_ptr<CollisionBackend> cpu = make_cpu_backend();
+
+      /* A check (MotionUse::check): the atoms whose kept copies, moved both ways of
+         rounding, differ in any bit from the caller's x or v. */
+      template <class Force>
+      void compare_motion(const ResidentAtoms &a, Force force, ResidentReport &report) const
+      {
+        const KeptMotion &m = a.motion;
+        long long miss[4] = {0, 0, 0, 0};
+        for (int i = 0; i < a.n; ++i)
+          for (int way = 0; way < 2; ++way) {
+            double x[3], v[3];
+            for (int d = 0; d < 3; ++d) {
+              x[d] = kx[3 * i + d];
+              v[d] = kv[3 * i + d];
+            }
+            move_between_steps(x, v, force(i), a.rmass[i], m.move, way == 1);
+            miss[2 * way] += std::memcmp(x, a.x + 3 * i, sizeof x) != 0;
+            miss[2 * way + 1] += std::memcmp(v, a.v + 3 * i, sizeof v) != 0;
+          }
+        for (int k = 0; k < 4; ++k) report.motion_miss[k] = miss[k];
+      }
 
       /* The step of the bodies b (a scratch copy, resolved in place) with the step bounds in
          `bound`; false where it declines (report.outcome says why). */

@@ -36,6 +36,8 @@
 
 #include "window_driver.h"
 
+#include "core/verlet_motion.h"
+
 #include <memory>
 #include <vector>
 
@@ -55,6 +57,25 @@ namespace Collide {
   };
 
   enum class ResidentOutcome { done = 0, overlap, excursion, capped, small_box };
+
+  /// How run_atoms() gets x and v.  Between two steps LAMMPS's integrator (fix nve or
+  /// nve/sphere of every atom) moves the atoms by verlet_between_steps() (core/verlet_motion.h)
+  /// with the step's f: where nothing else touched x or v (the caller knows), the step can move
+  /// the copies it kept from its last step the same way instead of copying the caller's up.
+  ///   copy:    x and v copied up (as always before);
+  ///   check:   copied up, and compared with the kept copies so moved, both ways of rounding
+  ///            (ResidentReport::motion_miss); the step itself uses what came up;
+  ///   predict: the kept copies so moved are the step's x and v; nothing copied up.
+  /// check and predict fall back to copy where the step kept no copies of these arrays (its
+  /// last run_atoms() not done, or not with keep, other arrays or another atom count, or
+  /// forget_host_arrays() since).
+  enum class MotionUse { copy, check, predict };
+  struct KeptMotion {
+    MotionUse use = MotionUse::copy;
+    bool keep = false;     // keep copies of x and v as this step leaves them, for the next
+    bool fused = false;    // predict: fused multiply-adds (core/verlet_motion.h)
+    StepMotion move;       // what LAMMPS did to the atoms since the last step
+  };
 
   /// What a resident step did besides the tally.
   struct ResidentReport {
@@ -76,6 +97,12 @@ namespace Collide {
     // looks ahead from vmax2, the speeds at the step's start).
     double vend2 = 0.0;
     long bytes_up = 0;    // run_atoms(): bytes copied to the device for the step
+    // run_atoms(): how the step got x and v (ResidentAtoms::motion; copy where it kept no
+    // copies to move), and on a check the atoms whose kept copies, moved by the integrator's
+    // arithmetic, differ from the caller's x or v in any bit: plain rounding x, v, then fused
+    // multiply-adds x, v (core/verlet_motion.h); -1 where not checked.
+    MotionUse motion = MotionUse::copy;
+    long long motion_miss[4] = {-1, -1, -1, -1};
   };
 
   /// The end of the step of an atom that had events (ResidentAtoms::results): its index in
@@ -130,6 +157,9 @@ namespace Collide {
     // The caller vouches that f is zero for every atom (no style sets forces: FixHardSphere::
     // forces_none): f is not read or copied up, the device uses zeros.
     bool zero_forces = false;
+    // How x and v get to the step (KeptMotion); only with x, v, f of the caller's (not
+    // inputs_shared, not results) and no omega.
+    KeptMotion motion;
   };
 
   class ResidentStep {

@@ -64,6 +64,13 @@ namespace GPU {
     }
 
     template <class T> T *as() const { return static_cast<T *>(ptr); }
+
+    /// Trades memory with another buffer (no copy).
+    void swap(DeviceBuffer &o)
+    {
+      std::swap(ptr, o.ptr);
+      std::swap(bytes, o.bytes);
+    }
   };
 
   /// Pinned (page-locked) host memory with DeviceBuffer's rules: grows only, 25 % headroom,

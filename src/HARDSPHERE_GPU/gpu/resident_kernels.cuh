@@ -11,6 +11,7 @@
 #include "resident_step_cuda.h"
 #include "group_loop_warp.cuh"
 #include "engine/window_chooser.h"
+#include "core/verlet_motion.h"
 
 #include <cub/block/block_reduce.cuh>
 
@@ -1033,17 +1034,79 @@ namespace Collide {
     // x and v into the caller's arrays x and v, which lie in host memory mapped into the
     // device's address space: the writes cross the link, so the six threads of one result
     // write its two runs of 24 bytes side by side (48 bytes per result over the link).
+    // Where kx and kv are given (the step keeps its copies of x and v, KeptMotion::keep), the
+    // same numbers into those device arrays too.
     __global__ void atom_write_direct_kernel(const AtomResult *__restrict__ res, int changed,
-                                             double *x, double *v)
+                                             double *x, double *v, double *kx, double *kv)
     {
       const long t = (long) blockIdx.x * blockDim.x + threadIdx.x;
       if (t >= 6L * changed) return;
       const int k = (int) (t / 6), c = (int) (t % 6);
       const AtomResult &r = res[k];
-      if (c < 3)
-        x[3 * (long) r.index + c] = r.x[c];
-      else
-        v[3 * (long) r.index + c - 3] = r.v[c - 3];
+      const double w = c < 3 ? r.x[c] : r.v[c - 3];
+      const long at = 3 * (long) r.index + c % 3;
+      if (c < 3) {
+        x[at] = w;
+        if (kx) kx[at] = w;
+      } else {
+        v[at] = w;
+        if (kv) kv[at] = w;
+      }
+    }
+
+    // Launch: blocks of BLOCK threads, one thread per atom (n).  The kept copies x, v of the
+    // last step's end moved in place as LAMMPS moved the caller's since (move_between_steps(),
+    // core/verlet_motion.h: a reneighboring's wrap, the integrator) with this step's f.  Reads
+    // 80 and writes 48 bytes per atom; 15 flops and a division.
+    __global__ void verlet_kernel(double *__restrict__ x, double *__restrict__ v,
+                                  const double *__restrict__ f, const double *__restrict__ rmass,
+                                  int n, StepMotion move, bool fused)
+    {
+      const int i = blockIdx.x * blockDim.x + threadIdx.x;
+      if (i >= n) return;
+      double xi[3], vi[3], fi[3];
+      for (int d = 0; d < 3; ++d) {
+        xi[d] = x[3 * i + d];
+        vi[d] = v[3 * i + d];
+        fi[d] = f[3 * i + d];
+      }
+      move_between_steps(xi, vi, fi, rmass[i], move, fused);
+      for (int d = 0; d < 3; ++d) {
+        x[3 * i + d] = xi[d];
+        v[3 * i + d] = vi[d];
+      }
+    }
+
+    // Launch: blocks of BLOCK threads, one thread per atom (n).  The check of the kept copies
+    // kx, kv: moved both ways of rounding (plain, fused) and compared bit for bit with x, v as
+    // copied up; miss[0 .. 3] (zeroed) count the atoms whose x (plain), v (plain), x (fused),
+    // v (fused) differ, one atomic per warp and count.  Reads 128 bytes per atom.
+    __global__ void verlet_check_kernel(const double *__restrict__ kx, const double *__restrict__ kv,
+                                        const double *__restrict__ x, const double *__restrict__ v,
+                                        const double *__restrict__ f,
+                                        const double *__restrict__ rmass, int n,
+                                        StepMotion move, unsigned long long *miss)
+    {
+      const int i = blockIdx.x * blockDim.x + threadIdx.x;
+      bool bad[4] = {false, false, false, false};
+      if (i < n)
+        for (int way = 0; way < 2; ++way) {
+          double xi[3], vi[3], fi[3];
+          for (int d = 0; d < 3; ++d) {
+            xi[d] = kx[3 * i + d];
+            vi[d] = kv[3 * i + d];
+            fi[d] = f[3 * i + d];
+          }
+          move_between_steps(xi, vi, fi, rmass[i], move, way == 1);
+          for (int d = 0; d < 3; ++d) {
+            bad[2 * way] |= __double_as_longlong(xi[d]) != __double_as_longlong(x[3 * i + d]);
+            bad[2 * way + 1] |= __double_as_longlong(vi[d]) != __double_as_longlong(v[3 * i + d]);
+          }
+        }
+      for (int k = 0; k < 4; ++k) {
+        const unsigned votes = __ballot_sync(0xffffffffu, bad[k]);
+        if ((threadIdx.x & 31) == 0 && votes) atomicAdd(&miss[k], (unsigned long long) __popc(votes));
+      }
     }
 
   }    // namespace

@@ -164,8 +164,8 @@ namespace Collide {
         d_budget.release();
         host_budget.release();
         if (serial_exec) cudaGraphExecDestroy(serial_exec);
-        for (DeviceBuffer *b :
-             {&d_ax, &d_av, &d_af, &d_arad, &d_amass, &d_atlast, &d_atype, &d_aid, &d_aomega})
+        for (DeviceBuffer *b : {&d_ax, &d_av, &d_af, &d_arad, &d_amass, &d_atlast, &d_atype,
+                                &d_aid, &d_aomega, &d_kx, &d_kv})
           b->release();
         for (HostRangeLock &l : locked) l.release();
         if (ev_up0) cudaEventDestroy(ev_up0);
@@ -217,6 +217,13 @@ namespace Collide {
       bool kept = false;
       const void *kept_host[NLOCKED] = {};
       size_t kept_bytes[NLOCKED] = {};
+      // d_ax and d_av hold x and v as the last done run_atoms() with KeptMotion::keep left
+      // them, for the caller's arrays motion_host[0], [1] of motion_n atoms; d_kx, d_kv: the
+      // kept copies set aside on a check (traded with d_ax, d_av).
+      bool motion_kept = false;
+      const void *motion_host[2] = {};
+      int motion_n = -1;
+      DeviceBuffer d_kx, d_kv;
 
      public:
       bool share_inputs(long count, int id_bytes, bool spin, std::vector<char> &handles) override
@@ -308,6 +315,7 @@ namespace Collide {
         cudaSetDevice(device);
         for (HostRangeLock &l : locked) l.release();
         kept = false;
+        motion_kept = false;
       }
 
      private:
@@ -1266,6 +1274,22 @@ namespace Collide {
       for (int k = FIRST_KEPT; k < NLOCKED; ++k)
         keep = keep && kept_host[k] == arrays[k].h && kept_bytes[k] == arrays[k].bytes;
       kept = false;    // until this step is done
+      // x and v: copied up, or the copies kept from the last step moved as LAMMPS's
+      // integrator moved the caller's since (ResidentAtoms::motion).
+      const KeptMotion &m = a.motion;
+      const bool own = !a.results && !a.inputs_shared && !(p.friction && a.omega);
+      const bool have = motion_kept && own && motion_host[0] == a.x && motion_host[1] == a.v &&
+          motion_n == n;
+      const bool keep_motion = m.keep && own;
+      motion_kept = false;    // until this step is done
+      report.motion = have ? m.use : MotionUse::copy;
+      const bool moved = report.motion == MotionUse::predict;
+      const bool check = report.motion == MotionUse::check;
+      if (check) {
+        // The kept copies aside (the buffers traded, nothing copied), before x and v come up.
+        d_kx.swap(d_ax);
+        d_kv.swap(d_av);
+      }
       cuda_check(cudaEventRecord(ev_up0, stream), "cudaEventRecord");
       for (int k = 0; k < NLOCKED; ++k) {
         if (k == 2 && a.zero_forces) {    // no forces: zeros, not copied
@@ -1279,6 +1303,7 @@ namespace Collide {
         locked[k].keep(arrays[k].h, arrays[k].bytes, locking);
         if (locked[k].p) ++prof.locked;
         if (keep && k >= FIRST_KEPT) continue;
+        if (moved && k < 2) continue;    // x, v: the kept copies, moved below
         up(arrays[k].d, arrays[k].h, arrays[k].bytes);
         report.bytes_up += (long) arrays[k].bytes;
       }
@@ -1292,16 +1317,30 @@ namespace Collide {
       }
       double *d_spin = spin ? d_aomega.as<double>() : nullptr;
       cuda_check(cudaEventRecord(ev_up1, stream), "cudaEventRecord");
-      // The step budget (the host's step_budget() on the device), read back by finish().
-      d_budget.reserve(4 * sizeof(unsigned long long), "cudaMalloc(budget)");
-      host_budget.reserve(4 * sizeof(unsigned long long), "cudaMallocHost(budget)");
-      cuda_check(cudaMemsetAsync(d_budget.ptr, 0, 3 * sizeof(unsigned long long), stream),
+      // The step budget (the host's step_budget() on the device) in [0, 3), and a check's
+      // counts in [4, 8), read back by finish().
+      constexpr int NBUDGET = 8, MISS = 4;
+      d_budget.reserve(NBUDGET * sizeof(unsigned long long), "cudaMalloc(budget)");
+      host_budget.reserve(NBUDGET * sizeof(unsigned long long), "cudaMallocHost(budget)");
+      cuda_check(cudaMemsetAsync(d_budget.ptr, 0, NBUDGET * sizeof(unsigned long long), stream),
                  "cudaMemset");
+      if (moved) {
+        verlet_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_ax.as<double>(), d_av.as<double>(),
+                                                        d_af.as<double>(), d_amass.as<double>(),
+                                                        n, m.move, m.fused);
+        launched("verlet_kernel");
+      } else if (check) {
+        verlet_check_kernel<<<nblocks(n), BLOCK, 0, stream>>>(
+            d_kx.as<double>(), d_kv.as<double>(), d_ax.as<double>(), d_av.as<double>(),
+            d_af.as<double>(), d_amass.as<double>(), n, m.move,
+            d_budget.as<unsigned long long>() + MISS);
+        launched("verlet_check_kernel");
+      }
       budget_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_av.as<double>(), d_af.as<double>(),
                                                       d_amass.as<double>(), d_arad.as<double>(), n,
                                                       a.ftm2v, d_budget.as<unsigned long long>());
       launched("budget_kernel");
-      fetch(d_budget, host_budget, 3 * sizeof(unsigned long long), "cudaMemcpy(budget)");
+      fetch(d_budget, host_budget, NBUDGET * sizeof(unsigned long long), "cudaMemcpy(budget)");
       // No wait here: the first read of the scalars waits for the uploads too.  Every way out
       // below ends with the stream idle; finish() then reads the budget and the upload time.
       auto finish = [&]() {
@@ -1313,6 +1352,8 @@ namespace Collide {
         std::memcpy(&report.vmax2, &bits[0], sizeof(double));
         std::memcpy(&report.amax, &bits[1], sizeof(double));
         std::memcpy(&report.rmax, &bits[2], sizeof(double));
+        for (int k = 0; k < 4 && check; ++k)
+          report.motion_miss[k] = (long long) bits[MISS + k];
       };
       prof.last = t_start;
       mark(Profile::upload);
@@ -1390,7 +1431,8 @@ namespace Collide {
         ++prof.direct;
         if (changed > 0) {
           atom_write_direct_kernel<<<nblocks(6L * changed), BLOCK, 0, stream>>>(
-              d_sums.as<AtomResult>(), changed, hx, hv);
+              d_sums.as<AtomResult>(), changed, hx, hv,
+              keep_motion ? d_ax.as<double>() : nullptr, keep_motion ? d_av.as<double>() : nullptr);
           launched("atom_write_direct_kernel");
         }
       } else if (whole) {
@@ -1408,6 +1450,13 @@ namespace Collide {
         if (spin)
           cuda_check(cudaMemcpyAsync(a.omega, d_aomega.ptr, n3, cudaMemcpyDeviceToHost, stream),
                      "cudaMemcpy(omega)");
+      }
+      if (!whole && keep_motion && changed > 0) {
+        // The host writes the changed atoms; the kept copies get them here.
+        atom_write_kernel<<<nblocks(changed), BLOCK, 0, stream>>>(
+            d_sums.as<AtomResult>(), nullptr, changed, d_ax.as<double>(), d_av.as<double>(),
+            nullptr);
+        launched("atom_write_kernel");
       }
       cuda_check(cudaStreamWaitEvent(stream, ev_join, 0), "cudaStreamWaitEvent");
       if (whole) {
@@ -1453,6 +1502,13 @@ namespace Collide {
         kept_bytes[k] = arrays[k].bytes;
       }
       kept = true;
+      // d_ax, d_av: x and v as the caller's arrays now hold them (the whole copies and the
+      // direct writes carry the changed atoms into them, the kernel above where the host
+      // writes them).
+      motion_kept = keep_motion;
+      motion_host[0] = a.x;
+      motion_host[1] = a.v;
+      motion_n = n;
     }
 
   }    // namespace
