@@ -233,6 +233,16 @@ void FixHardSphere::parse(int narg, char **arg)
   auto need = [&](int n, const char *kw) {
     if (iarg + n >= narg) error->all(FLERR, "Fix hardsphere: keyword {} needs {} value(s)", kw, n);
   };
+  // A keyword whose one value is yes or no: 1 or 0, and iarg past it.
+  auto yes_no = [&](const char *kw) {
+    need(1, kw);
+    const char *value = arg[iarg + 1];
+    iarg += 2;
+    if (strcmp(value, "yes") == 0) return 1;
+    if (strcmp(value, "no") != 0)
+      error->all(FLERR, "Fix hardsphere: {} must be yes or no, got {}", kw, value);
+    return 0;
+  };
   while (iarg < narg) {
     const char *kw = arg[iarg];
     if (strcmp(kw, "restitution") == 0) {
@@ -332,14 +342,7 @@ void FixHardSphere::parse(int narg, char **arg)
       }
       iarg += 2;
     } else if (strcmp(kw, "tc/slow") == 0) {
-      need(1, kw);
-      if (strcmp(arg[iarg + 1], "yes") == 0)
-        tc_slow = 1;
-      else if (strcmp(arg[iarg + 1], "no") == 0)
-        tc_slow = 0;
-      else
-        error->all(FLERR, "Fix hardsphere: tc/slow must be yes or no, got {}", arg[iarg + 1]);
-      iarg += 2;
+      tc_slow = yes_no(kw);
     } else if (strcmp(kw, "vmin") == 0) {
       need(1, kw);
       if (strcmp(arg[iarg + 1], "auto") == 0) {
@@ -377,32 +380,11 @@ void FixHardSphere::parse(int narg, char **arg)
       if (maxpush < 1) error->all(FLERR, "Fix hardsphere: maxpush must be >= 1");
       iarg += 2;
     } else if (strcmp(kw, "gpu") == 0) {
-      need(1, kw);
-      if (strcmp(arg[iarg + 1], "yes") == 0)
-        gpu_requested = 1;
-      else if (strcmp(arg[iarg + 1], "no") == 0)
-        gpu_requested = 0;
-      else
-        error->all(FLERR, "Fix hardsphere: gpu must be yes or no, got {}", arg[iarg + 1]);
-      iarg += 2;
+      gpu_requested = yes_no(kw);
     } else if (strcmp(kw, "gpu/gather") == 0) {
-      need(1, kw);
-      if (strcmp(arg[iarg + 1], "yes") == 0)
-        gpu_gather = 1;
-      else if (strcmp(arg[iarg + 1], "no") == 0)
-        gpu_gather = 0;
-      else
-        error->all(FLERR, "Fix hardsphere: gpu/gather must be yes or no, got {}", arg[iarg + 1]);
-      iarg += 2;
+      gpu_gather = yes_no(kw);
     } else if (strcmp(kw, "gpu/keep") == 0) {
-      need(1, kw);
-      if (strcmp(arg[iarg + 1], "yes") == 0)
-        gpu_keep = 1;
-      else if (strcmp(arg[iarg + 1], "no") == 0)
-        gpu_keep = 0;
-      else
-        error->all(FLERR, "Fix hardsphere: gpu/keep must be yes or no, got {}", arg[iarg + 1]);
-      iarg += 2;
+      gpu_keep = yes_no(kw);
     } else if (strcmp(kw, "device") == 0) {
       need(1, kw);
       if (strcmp(arg[iarg + 1], "auto") == 0) {
