@@ -58,6 +58,7 @@
 #include "gpu/collision_backend_cuda.h"
 #include "gpu/peer_inputs.h"
 #include "gpu/resident_step_cuda.h"
+#include "step_ahead.h"
 #include "gpu/device_info.cuh"
 #include "gpu_device_choice.h"
 #include "lmp_compat.h"
@@ -188,6 +189,7 @@ FixHardSphere::~FixHardSphere()
   if (copymode) return;
   atom->delete_callback(id, Atom::GROW);
   atom->delete_callback(id, Atom::RESTART);
+  ahead.reset();       // waits for a step run ahead (it uses `resident`)
   resident.reset();    // lets go of the atom arrays it keeps page-locked
   peer.reset();        // the same
   memory->destroy(tlast);
@@ -443,7 +445,8 @@ void FixHardSphere::parse(int narg, char **arg)
 
 int FixHardSphere::setmask()
 {
-  return POST_INTEGRATE | PRE_NEIGHBOR | PRE_EXCHANGE;
+  // END_OF_STEP: the next step run ahead on the device (fix_hardsphere_ahead.cpp).
+  return POST_INTEGRATE | PRE_NEIGHBOR | PRE_EXCHANGE | END_OF_STEP;
 }
 
 double FixHardSphere::current_tc() const
@@ -896,6 +899,7 @@ void FixHardSphere::restart(char *buf)
 void FixHardSphere::grow_arrays(int nmax)
 {
   // LAMMPS has grown (moved) its per-atom arrays: the device step lets go of the old ones.
+  drop_ahead();
   if (resident) resident->forget_host_arrays();
   if (peer) peer->forget_host_arrays();
   resident_same = false;

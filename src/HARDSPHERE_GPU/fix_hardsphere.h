@@ -32,6 +32,7 @@ namespace GPU {
   class PeerInputs;
 }
 }    // namespace HSGPU
+class StepAhead;
 
 namespace LAMMPS_NS {
 
@@ -46,6 +47,7 @@ class FixHardSphere : public Fix {
   void pre_exchange() override;
   void post_run() override;
   void post_integrate() override;
+  void end_of_step() override;
   double compute_vector(int) override;
 
   void write_restart(FILE *) override;
@@ -170,6 +172,7 @@ class FixHardSphere : public Fix {
     double forwards = 0.0;  // rounds of gathers passing entries on (WindowStats::forwards)
     bigint declined[5] = {0, 0, 0, 0, 0};                  // steps handed back, by ResidentOutcome
     bigint moved = 0, checked = 0;    // device steps with x, v moved there, or checked (gpu/keep)
+    bigint ahead = 0, dropped = 0;    // steps run ahead during LAMMPS's integration, dropped
   } run_sum;
 
   // --- per-step work ----------------------------------------------------------------------
@@ -251,6 +254,24 @@ class FixHardSphere : public Fix {
   HSGPU::Collide::KeptMotion kept_motion(bool same) const;
   void motion_seen(const HSGPU::Collide::ResidentReport &report);
   std::string motion_summary() const;
+  // The next step run ahead on the device while LAMMPS integrates (fix_hardsphere_ahead.cpp):
+  // started at end_of_step() where that step can move x and v on the device, taken by the
+  // next post_integrate() (or dropped, where something changed in between).
+  std::unique_ptr<StepAhead> ahead;
+  struct Ahead {
+    bool pending = false;
+    bigint step = -1;      // the step it is
+    bigint builds = -1;    // neighbor->ncalls when it started
+    double dt = 0.0;
+    HSGPU::Collide::ResidentAtoms atoms{};
+    HSGPU::Collide::ResidentBox box{};
+    HSGPU::Collide::Params params{};
+    HSGPU::Collide::Tally tally;
+    HSGPU::Collide::ResidentReport report;
+  } next;
+  void run_ahead();
+  int take_ahead(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
+  void drop_ahead();
   // gpu yes on several ranks with gpu/gather yes: each step's atoms (of the group) gathered on
   // rank 0, whose `resident` step runs it (step_gathered(); the same on every rank).
   bool gather_step = false;

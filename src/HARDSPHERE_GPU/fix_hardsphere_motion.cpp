@@ -186,6 +186,8 @@ std::string FixHardSphere::motion_summary() const
       : motion_way == MOTION_FUSED             ? "fused multiply-adds as fix nve's, "
       : motion_way == MOTION_OFF               ? "not matching fix nve's, "
                                                : "";
-  return fmt::format("x and v moved on the device on {} steps ({}checked against LAMMPS's on {})",
-                     run_sum.moved, way, run_sum.checked);
+  return fmt::format("x and v moved on the device on {} steps ({}checked against LAMMPS's on {}); "
+                     "{} steps run ahead on the device during LAMMPS's integration ({} of them "
+                     "dropped)",
+                     run_sum.moved, way, run_sum.checked, run_sum.ahead, run_sum.dropped);
 }

@@ -1056,6 +1056,7 @@ void FixHardSphere::setup(int vflag)
 {
   // Commands between runs may have moved the atom arrays the device step keeps page-locked,
   // or changed them.
+  drop_ahead();
   if (resident) resident->forget_host_arrays();
   if (peer) peer->forget_host_arrays();
   resident_same = false;
@@ -1334,6 +1335,11 @@ void FixHardSphere::count_resident(const HSGPU::Collide::ResidentReport &report)
 int FixHardSphere::step_resident(Tally &mine, Tally &all)
 {
   if (comm->nprocs > 1) return step_gathered(mine, all);
+  // This step run ahead during LAMMPS's integration (end_of_step()), where nothing changed.
+  if (next.pending) {
+    const int taken = take_ahead(mine, all);
+    if (taken >= 0) return taken;
+  }
   // Whatever this step does, the device's copies are current after it only where it is done
   // there whole.
   const bool same = resident_same && !sizes_vary;
@@ -1476,6 +1482,7 @@ void FixHardSphere::post_integrate()
 /* One line per run in the log: what the resolution did, for a user asking why a run is slow. */
 void FixHardSphere::post_run()
 {
+  drop_ahead();
   const RunSummary &r = run_sum;
   if (r.steps == 0) return;
   // The bytes and messages all ranks received (every rank takes part in the sum).

@@ -1246,11 +1246,21 @@ TEST(FixHardSphere, KeptMotionEqualsCopiedArrays)
                                           "fix 1 all nve/sphere",
                                           "timestep 0.02"};
   struct Case {
-    const char *name, *extra;
-    bool moved;
+    const char *name;
+    std::vector<std::string> extra;
+    bool moved, dropped;    // x and v moved on the device; steps run ahead dropped
   };
-  for (const Case &c : {Case{"no forces", "", true}, Case{"gravity", "fix g all gravity 0.5 vector 0 0 -1", true},
-                        Case{"fix momentum", "fix m all momentum 5 linear 1 1 1", false}}) {
+  const Case cases[] = {
+      {"no forces", {}, true, false},
+      {"gravity", {"fix g all gravity 0.5 vector 0 0 -1"}, true, false},
+      // Per-atom virial every 7th step: those steps run on the host, and a step run ahead
+      // for them is dropped.
+      {"per-atom virial",
+       {"compute sa all stress/atom NULL fix", "compute sred all reduce sum c_sa[1]",
+        "fix sav all ave/time 7 1 7 c_sred"},
+       true, true},
+      {"fix momentum", {"fix m all momentum 5 linear 1 1 1"}, false, false}};
+  for (const Case &c : cases) {
     std::vector<double> x[3], v[3];
     double coll[3], done[3];
     std::string text;
@@ -1261,7 +1271,7 @@ TEST(FixHardSphere, KeptMotionEqualsCopiedArrays)
       if (!cuda) setenv("HSGPU_RESIDENT_HOST", "1", 1);
       Lammps lmp;
       lmp.commands(setup);
-      if (*c.extra) lmp.command(c.extra);
+      lmp.commands(c.extra);
       lmp.commands({fixes[k], "log " + log, "run 400", "log none"});
       if (!cuda) unsetenv("HSGPU_RESIDENT_HOST");
       x[k] = lmp.gather("x", 3);
@@ -1281,9 +1291,23 @@ TEST(FixHardSphere, KeptMotionEqualsCopiedArrays)
     ASSERT_NE(at, std::string::npos) << text;
     const std::string line = text.substr(at, text.find('\n', at) - at);
     if (c.moved) {
-      int moved = 0, checked = 0;
-      ASSERT_EQ(std::sscanf(line.c_str(), "Fix hardsphere: x and v moved on the device on %d steps (rounded as fix nve rounds them, checked against LAMMPS's on %d)", &moved, &checked), 2)
+      int moved = 0, checked = 0, ahead = 0, dropped = 0;
+      ASSERT_EQ(std::sscanf(line.c_str(),
+                            "Fix hardsphere: x and v moved on the device on %d steps (rounded as "
+                            "fix nve rounds them, checked against LAMMPS's on %d); %d steps run "
+                            "ahead on the device during LAMMPS's integration (%d of them dropped)",
+                            &moved, &checked, &ahead, &dropped),
+                4)
           << line;
+      // Every step that moved x and v on the device was run ahead but those after a dropped
+      // one (its kept copies went with it).
+      EXPECT_GE(ahead, moved) << c.name;
+      if (c.dropped) {
+        EXPECT_GT(dropped, 10) << c.name;
+      } else {
+        EXPECT_EQ(dropped, 0) << c.name;
+        EXPECT_EQ(ahead, moved) << c.name;
+      }
       EXPECT_GT(moved, 101) << c.name;
       // The run's first step with kept copies, and again after every 100 moved steps.
       EXPECT_GE(checked, 1 + (moved - 1) / 100) << c.name;

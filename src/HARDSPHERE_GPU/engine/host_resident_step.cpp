@@ -40,6 +40,7 @@ namespace Collide {
       {
         const auto t0 = std::chrono::steady_clock::now();
         report = ResidentReport();
+        later = Later();    // an undelivered step's results are dropped
         const int n = a.n;
         const double dt = p.dt;
         // The forces of atom i (zeros where the caller says there are none: f is not read).
@@ -91,9 +92,14 @@ namespace Collide {
         const auto t1 = std::chrono::steady_clock::now();
         if (a.results) a.results->clear();
         if (a.result_spin) a.result_spin->clear();
+        // With defer_writes the results wait in `later` (tlast of every atom, x and v of the
+        // changed ones) for deliver_atoms().
+        const bool defer = a.defer_writes && !a.results && !a.omega;
+        if (defer) later.tlast.resize(n);
+        double *tl = defer ? later.tlast.data() : a.tlast;
         for (int i = 0; i < n; ++i) {
           const Body &b = atoms[i];
-          a.tlast[i] = std::max(b.tlast - dt, a.never);
+          tl[i] = std::max(b.tlast - dt, a.never);
           report.vend2 = std::max(report.vend2, speed2(b.v));
           if (b.nevents == 0) continue;
           ++report.changed;
@@ -111,9 +117,20 @@ namespace Collide {
               for (int d = 0; d < 3; ++d) a.result_spin->push_back(b.omega[d]);
             continue;
           }
+          if (defer) {
+            ResidentResult r;
+            r.index = i;
+            for (int d = 0; d < 3; ++d) {
+              r.x[d] = xe[d];
+              r.v[d] = b.v[d];
+            }
+            later.changed.push_back(r);
+          }
           for (int d = 0; d < 3; ++d) {
-            a.x[3 * i + d] = xe[d];
-            a.v[3 * i + d] = b.v[d];
+            if (!defer) {
+              a.x[3 * i + d] = xe[d];
+              a.v[3 * i + d] = b.v[d];
+            }
             if (keep) {
               kx[3 * i + d] = xe[d];
               kv[3 * i + d] = b.v[d];
@@ -126,10 +143,32 @@ namespace Collide {
         kept_x = a.x;
         kept_v = a.v;
         kept_n = n;
+        if (defer) {
+          later.pending = true;
+          later.x = a.x;
+          later.v = a.v;
+          later.tlast_to = a.tlast;
+        }
         report.t_resolve += seconds_since(t1);
       }
 
-      void forget_host_arrays() override { motion_kept = false; }
+      void deliver_atoms() override
+      {
+        if (!later.pending) return;
+        for (const ResidentResult &r : later.changed)
+          for (int d = 0; d < 3; ++d) {
+            later.x[3 * r.index + d] = r.x[d];
+            later.v[3 * r.index + d] = r.v[d];
+          }
+        std::copy(later.tlast.begin(), later.tlast.end(), later.tlast_to);
+        later = Later();
+      }
+
+      void forget_host_arrays() override
+      {
+        motion_kept = false;
+        later = Later();
+      }
 
       void run(Body *bodies, const double *bnd, int n, const ResidentBox &box, const Params &p,
                const WindowSettings &s, Tally &tally, ResidentReport &report) override
@@ -148,6 +187,13 @@ namespace Collide {
       }
 
      private:
+      // A done run_atoms() with defer_writes: its results, for deliver_atoms().
+      struct Later {
+        bool pending = false;
+        std::vector<ResidentResult> changed;
+        std::vector<double> tlast;
+        double *x = nullptr, *v = nullptr, *tlast_to = nullptr;
+      } later;
       // Copies of x and v as the last done run_atoms() with KeptMotion::keep left them, of the
       // caller's arrays kept_x, kept_v of kept_n atoms.
       bool motion_kept = false;

@@ -160,6 +160,11 @@ namespace Collide {
     // How x and v get to the step (KeptMotion); only with x, v, f of the caller's (not
     // inputs_shared, not results) and no omega.
     KeptMotion motion;
+    // The caller's x, v, omega and tlast are not written (nor read, with MotionUse::predict
+    // and same_atoms) until deliver_atoms(), which writes the results there; the step can
+    // then run while LAMMPS still integrates the atoms (FixHardSphere::end_of_step()).  Not
+    // with results.
+    bool defer_writes = false;
   };
 
   class ResidentStep {
@@ -242,6 +247,11 @@ namespace Collide {
     /// given.  The report's budget maxima are filled in either way.
     virtual void run_atoms(const ResidentAtoms &a, const ResidentBox &box, const Params &p,
                            const WindowSettings &s, Tally &tally, ResidentReport &report) = 0;
+    /// After a run_atoms() with ResidentAtoms::defer_writes that returned `done`: writes its
+    /// results into the arrays it was given (x, v and omega of the atoms that had events, every
+    /// atom's tlast) and waits.  Nothing where none is pending; forget_host_arrays() drops a
+    /// pending one (and the copies the step keeps, which ran ahead with it).
+    virtual void deliver_atoms() = 0;
     /// The step of bodies[0 .. n) (states at the step start, x = X0, tref = 0) with their step
     /// bounds: pairs whose start points are within r_i + r_j + bound_i + bound_j (nearest
     /// image) are the candidates.  On `done` the bodies that had events hold their states at

@@ -184,8 +184,25 @@ namespace Collide {
                const WindowSettings &s, Tally &tally, ResidentReport &report) override;
       void run_atoms(const ResidentAtoms &a, const ResidentBox &box, const Params &p,
                      const WindowSettings &s, Tally &tally, ResidentReport &report) override;
+      void deliver_atoms() override
+      {
+        if (!later.pending) return;
+        cuda_check(cudaSetDevice(device), "cudaSetDevice");
+        write_back(later);
+        later = Later();
+      }
 
      private:
+      // run_atoms()'s results on their way to the caller's arrays (write_back()), kept for
+      // deliver_atoms() where the caller deferred them (ResidentAtoms::defer_writes).
+      struct Later {
+        bool pending = false;
+        ResidentAtoms a{};
+        int changed = 0;
+        bool spin = false, keep_motion = false;
+      } later;
+      void write_back(const Later &w);
+
       int device;
       cudaStream_t stream = nullptr;
       Scalars *host_scalars = nullptr;
@@ -316,6 +333,7 @@ namespace Collide {
         for (HostRangeLock &l : locked) l.release();
         kept = false;
         motion_kept = false;
+        later = Later();
       }
 
      private:
@@ -1239,6 +1257,100 @@ namespace Collide {
       report.t_resolve = seconds_since(t_windows);
     }
 
+    /* The results of run_atoms() into the caller's arrays (its tail, or deliver_atoms() where
+       they were deferred): every atom's tlast, and the changed atoms' x and v (and omega). */
+    void CudaResidentStep::write_back(const Later &w)
+    {
+      const ResidentAtoms &a = w.a;
+      const int changed = w.changed;
+      const bool spin = w.spin, keep_motion = w.keep_motion;
+      const size_t n3 = (size_t) 3 * n * sizeof(double), n1 = (size_t) n * sizeof(double);
+      double *d_rsp = spin ? d_rspin.as<double>() : nullptr;
+      double *d_spin = spin ? d_aomega.as<double>() : nullptr;
+      // Every atom's time of last collision comes back whole (8 bytes per atom), by the copy
+      // engine on the side stream while the changed atoms go back on this one.
+      cuda_check(cudaEventRecord(ev_fork, stream), "cudaEventRecord");
+      cuda_check(cudaStreamWaitEvent(side, ev_fork, 0), "cudaStreamWaitEvent");
+      cuda_check(cudaMemcpyAsync(a.tlast, d_atlast.ptr, n1, cudaMemcpyDeviceToHost, side),
+                 "cudaMemcpy(tlast)");
+      cuda_check(cudaEventRecord(ev_join, side), "cudaEventRecord");
+      // Many atoms changed and the arrays are page-locked: writing the changed atoms into the
+      // device copies of x, v and tlast and copying those back whole costs less than the
+      // host's scattered writes (which touch most cache lines of the arrays anyway).  The
+      // other atoms get their own bytes back.
+      static const bool scatter = std::getenv("HSGPU_RESIDENT_SCATTER") != nullptr;
+      const bool whole = !a.results && !scatter && changed > n / 32 && locked[0].p && locked[1].p;
+      // Or the device writes the changed atoms straight into the page-locked arrays (mapped
+      // into its address space): only their bytes cross the link (HSGPU_RESIDENT_DIRECT=0: the
+      // whole copies).
+      static const bool direct = env_number("HSGPU_RESIDENT_DIRECT", 1.0) != 0.0;
+      double *hx = whole && !spin && direct ? locked[0].device_address(a.x) : nullptr;
+      double *hv = hx ? locked[1].device_address(a.v) : nullptr;
+      if (hx && hv) {
+        ++prof.direct;
+        if (changed > 0) {
+          atom_write_direct_kernel<<<nblocks(6L * changed), BLOCK, 0, stream>>>(
+              d_sums.as<AtomResult>(), changed, hx, hv,
+              keep_motion ? d_ax.as<double>() : nullptr, keep_motion ? d_av.as<double>() : nullptr);
+          launched("atom_write_direct_kernel");
+        }
+      } else if (whole) {
+        ++prof.whole;
+        if (changed > 0) {
+          atom_write_kernel<<<nblocks(changed), BLOCK, 0, stream>>>(
+              d_sums.as<AtomResult>(), d_rsp, changed, d_ax.as<double>(), d_av.as<double>(),
+              d_spin);
+          launched("atom_write_kernel");
+        }
+        cuda_check(cudaMemcpyAsync(a.x, d_ax.ptr, n3, cudaMemcpyDeviceToHost, stream),
+                   "cudaMemcpy(x)");
+        cuda_check(cudaMemcpyAsync(a.v, d_av.ptr, n3, cudaMemcpyDeviceToHost, stream),
+                   "cudaMemcpy(v)");
+        if (spin)
+          cuda_check(cudaMemcpyAsync(a.omega, d_aomega.ptr, n3, cudaMemcpyDeviceToHost, stream),
+                     "cudaMemcpy(omega)");
+      }
+      if (!whole && keep_motion && changed > 0) {
+        // The host writes the changed atoms; the kept copies get them here.
+        atom_write_kernel<<<nblocks(changed), BLOCK, 0, stream>>>(
+            d_sums.as<AtomResult>(), nullptr, changed, d_ax.as<double>(), d_av.as<double>(),
+            nullptr);
+        launched("atom_write_kernel");
+      }
+      cuda_check(cudaStreamWaitEvent(stream, ev_join, 0), "cudaStreamWaitEvent");
+      if (whole) {
+        wait("cudaMemcpy(atoms back)");    // (or the direct writes)
+      } else {
+        // Room for a quarter of the atoms at once, so that the buffer rarely grows.
+        host_results.reserve(std::max((size_t) changed, (size_t) n / 4) * sizeof(AtomResult),
+                             "cudaMallocHost(atom results)");
+        fetch(d_sums, host_results, changed * sizeof(AtomResult), "cudaMemcpy(atom results)");
+        if (spin) {
+          host_rspin.reserve(std::max((size_t) changed, (size_t) n / 4) * 3 * sizeof(double),
+                             "cudaMallocHost(atom results)");
+          fetch(d_rspin, host_rspin, (size_t) changed * 3 * sizeof(double),
+                "cudaMemcpy(atom results)");
+        }
+        wait("cudaMemcpy(atom results)");
+        const double *w = host_rspin.as<double>();
+        if (a.results) {
+          // The caller takes the results as they are.
+          const AtomResult *r = host_results.as<AtomResult>();
+          a.results->assign(r, r + changed);
+          if (spin && a.result_spin) a.result_spin->assign(w, w + 3 * (size_t) changed);
+        }
+        for (int k = 0; k < changed && !a.results; ++k) {
+          const AtomResult &r = host_results.as<AtomResult>()[k];
+          for (int d = 0; d < 3; ++d) {
+            a.x[3 * r.index + d] = r.x[d];
+            a.v[3 * r.index + d] = r.v[d];
+          }
+          if (spin)
+            for (int d = 0; d < 3; ++d) a.omega[3 * r.index + d] = w[3 * k + d];
+        }
+      }
+    }
+
     void CudaResidentStep::run_atoms(const ResidentAtoms &a, const ResidentBox &box,
                                      const Params &p, const WindowSettings &s, Tally &tally,
                                      ResidentReport &report)
@@ -1246,6 +1358,7 @@ namespace Collide {
       const auto t_start = Clock::now();
       if (prof.line.on) prof.line.record(stream, Profile::Timeline::start, 0);
       report = ResidentReport();
+      later = Later();    // an undelivered step's results are dropped
       n = a.n;
       if (n <= 0) return;
       tol = box.overlap_tol;
@@ -1407,89 +1520,17 @@ namespace Collide {
       tlast_end_kernel<<<nblocks(n, TILE), TILE, 0, stream>>>(d_bodies.as<Body>(), n, p.dt, a.never,
                                                               d_atlast.as<double>());
       launched("tlast_end_kernel");
-      // Every atom's time of last collision comes back whole (8 bytes per atom), by the copy
-      // engine on the side stream while the changed atoms go back on this one.
-      cuda_check(cudaEventRecord(ev_fork, stream), "cudaEventRecord");
-      cuda_check(cudaStreamWaitEvent(side, ev_fork, 0), "cudaStreamWaitEvent");
-      cuda_check(cudaMemcpyAsync(a.tlast, d_atlast.ptr, n1, cudaMemcpyDeviceToHost, side),
-                 "cudaMemcpy(tlast)");
-      cuda_check(cudaEventRecord(ev_join, side), "cudaEventRecord");
       report.changed = changed;
-      // Many atoms changed and the arrays are page-locked: writing the changed atoms into the
-      // device copies of x, v and tlast and copying those back whole costs less than the
-      // host's scattered writes (which touch most cache lines of the arrays anyway).  The
-      // other atoms get their own bytes back.
-      static const bool scatter = std::getenv("HSGPU_RESIDENT_SCATTER") != nullptr;
-      const bool whole = !a.results && !scatter && changed > n / 32 && locked[0].p && locked[1].p;
-      // Or the device writes the changed atoms straight into the page-locked arrays (mapped
-      // into its address space): only their bytes cross the link (HSGPU_RESIDENT_DIRECT=0: the
-      // whole copies).
-      static const bool direct = env_number("HSGPU_RESIDENT_DIRECT", 1.0) != 0.0;
-      double *hx = whole && !spin && direct ? locked[0].device_address(a.x) : nullptr;
-      double *hv = hx ? locked[1].device_address(a.v) : nullptr;
-      if (hx && hv) {
-        ++prof.direct;
-        if (changed > 0) {
-          atom_write_direct_kernel<<<nblocks(6L * changed), BLOCK, 0, stream>>>(
-              d_sums.as<AtomResult>(), changed, hx, hv,
-              keep_motion ? d_ax.as<double>() : nullptr, keep_motion ? d_av.as<double>() : nullptr);
-          launched("atom_write_direct_kernel");
-        }
-      } else if (whole) {
-        ++prof.whole;
-        if (changed > 0) {
-          atom_write_kernel<<<nblocks(changed), BLOCK, 0, stream>>>(
-              d_sums.as<AtomResult>(), d_rsp, changed, d_ax.as<double>(), d_av.as<double>(),
-              d_spin);
-          launched("atom_write_kernel");
-        }
-        cuda_check(cudaMemcpyAsync(a.x, d_ax.ptr, n3, cudaMemcpyDeviceToHost, stream),
-                   "cudaMemcpy(x)");
-        cuda_check(cudaMemcpyAsync(a.v, d_av.ptr, n3, cudaMemcpyDeviceToHost, stream),
-                   "cudaMemcpy(v)");
-        if (spin)
-          cuda_check(cudaMemcpyAsync(a.omega, d_aomega.ptr, n3, cudaMemcpyDeviceToHost, stream),
-                     "cudaMemcpy(omega)");
-      }
-      if (!whole && keep_motion && changed > 0) {
-        // The host writes the changed atoms; the kept copies get them here.
-        atom_write_kernel<<<nblocks(changed), BLOCK, 0, stream>>>(
-            d_sums.as<AtomResult>(), nullptr, changed, d_ax.as<double>(), d_av.as<double>(),
-            nullptr);
-        launched("atom_write_kernel");
-      }
-      cuda_check(cudaStreamWaitEvent(stream, ev_join, 0), "cudaStreamWaitEvent");
-      if (whole) {
-        wait("cudaMemcpy(atoms back)");    // (or the direct writes)
-      } else {
-        // Room for a quarter of the atoms at once, so that the buffer rarely grows.
-        host_results.reserve(std::max((size_t) changed, (size_t) n / 4) * sizeof(AtomResult),
-                             "cudaMallocHost(atom results)");
-        fetch(d_sums, host_results, changed * sizeof(AtomResult), "cudaMemcpy(atom results)");
-        if (spin) {
-          host_rspin.reserve(std::max((size_t) changed, (size_t) n / 4) * 3 * sizeof(double),
-                             "cudaMallocHost(atom results)");
-          fetch(d_rspin, host_rspin, (size_t) changed * 3 * sizeof(double),
-                "cudaMemcpy(atom results)");
-        }
-        wait("cudaMemcpy(atom results)");
-        const double *w = host_rspin.as<double>();
-        if (a.results) {
-          // The caller takes the results as they are.
-          const AtomResult *r = host_results.as<AtomResult>();
-          a.results->assign(r, r + changed);
-          if (spin && a.result_spin) a.result_spin->assign(w, w + 3 * (size_t) changed);
-        }
-        for (int k = 0; k < changed && !a.results; ++k) {
-          const AtomResult &r = host_results.as<AtomResult>()[k];
-          for (int d = 0; d < 3; ++d) {
-            a.x[3 * r.index + d] = r.x[d];
-            a.v[3 * r.index + d] = r.v[d];
-          }
-          if (spin)
-            for (int d = 0; d < 3; ++d) a.omega[3 * r.index + d] = w[3 * k + d];
-        }
-      }
+      // The results into the caller's arrays, now or (defer_writes) at deliver_atoms().
+      later = Later();
+      later.a = a;
+      later.changed = changed;
+      later.spin = spin;
+      later.keep_motion = keep_motion;
+      if (a.defer_writes && !a.results && !spin)
+        later.pending = true;
+      else
+        write_back(later);
       report.t_download = seconds_since(t_down);
       mark(Profile::download);
       prof.end_step();
