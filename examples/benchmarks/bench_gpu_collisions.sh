@@ -21,7 +21,11 @@
 # the GPU and their ratio; the GPU's search and
 # resolve ms/step (the fix's timers: search = upload and candidate search, resolve = windows,
 # checks and download) and the part of both spent copying (the run summary's seconds);
-# collisions per second of the GPU's fix step; steps carried out on the device.
+# collisions per second of the GPU's fix step; steps carried out on the device.  On one rank
+# with gpu/keep (the default) most device steps run ahead during LAMMPS's integration: the
+# GPU's fix step then counts what the device had not finished when LAMMPS's integration was
+# done (and writing the results), its search and resolve the device step's own time; set
+# HSGPU_RESIDENT_AHEAD=0 for the fix step of a device step not run ahead.
 #
 # HSGPU_BENCH_SERIAL=1 adds a third run per repeat, 'gpu yes order serial' (the seed paper's
 # loop on the device: one device-wide earliest event per iteration), and three columns: its

@@ -9,7 +9,8 @@
    after atoms were wrapped into the box (a reneighboring, Domain::pbc()), the step wrapping its
    copies the same way.  Both must end bit for bit alike; the checks find the
    caller's rounding and only it; a v changed by one ulp behind the step's back must show in
-   the next check; and after forget_host_arrays() a prediction falls back to a copy. */
+   the next check; after forget_host_arrays() a prediction falls back to a copy; and two of the
+   steps defer their writes (ResidentAtoms::defer_writes) until deliver_atoms(). */
 #ifndef HSGPU_TEST_KEPT_MOTION_H
 #define HSGPU_TEST_KEPT_MOTION_H
 
@@ -80,16 +81,26 @@ inline void check_kept_motion(const std::function<std::unique_ptr<ResidentStep>(
           }
         if (k == 6 && r == &kept) r->v[3 * 17 + 1] = std::nextafter(r->v[3 * 17 + 1], 1e300);
         ResidentAtoms a = g.atoms(r->x.data(), r->v.data(), r->tlast.data(), g.radius.data(), 0.5);
+        // Steps 2 and 5 deferred (ResidentAtoms::defer_writes): the arrays untouched until
+        // deliver_atoms().
+        const bool defer = r == &kept && (k == 2 || k == 5);
         if (r == &kept) {
           a.motion.keep = true;
           a.motion.use = plan[k];
           a.motion.fused = fused;
           a.motion.move = mk;
+          a.defer_writes = defer;
         }
+        const std::vector<double> xb = r->x, vb = r->v, tb = r->tlast;
         Tally t;
         ResidentReport &re = rep[r == &kept];
         r->rs->run_atoms(a, g.box, g.p, g.s, t, re);
         ASSERT_EQ(re.outcome, ResidentOutcome::done) << "step " << k;
+        if (defer) {
+          EXPECT_TRUE(xb == r->x && vb == r->v && tb == r->tlast) << "written before delivery";
+          r->rs->deliver_atoms();
+          EXPECT_FALSE(xb == r->x) << "delivered";
+        }
         r->pairs += t.pair;
       }
       const ResidentReport &r = rep[1];
