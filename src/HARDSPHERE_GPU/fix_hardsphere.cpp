@@ -445,8 +445,8 @@ void FixHardSphere::parse(int narg, char **arg)
 
 int FixHardSphere::setmask()
 {
-  // END_OF_STEP: the next step run ahead on the device (fix_hardsphere_ahead.cpp).
-  return POST_INTEGRATE | PRE_NEIGHBOR | PRE_EXCHANGE | END_OF_STEP;
+  // POST_FORCE, END_OF_STEP: the next step run ahead on the device (fix_hardsphere_ahead.cpp).
+  return POST_INTEGRATE | PRE_NEIGHBOR | PRE_EXCHANGE | POST_FORCE | END_OF_STEP;
 }
 
 double FixHardSphere::current_tc() const
@@ -489,6 +489,7 @@ void FixHardSphere::init()
   check_other_fixes();
   forces_none = no_force_styles();
   motion_known = motion_fixes_known(motion_why);
+  ahead_at_post_force = last_post_force();
 
   // Friction turns spin into translation through the moment of inertia k m r^2: k follows the
   // integrator that moves these atoms' omega (fix nve/sphere and the nvt, npt, nph/sphere
@@ -630,7 +631,7 @@ bool FixHardSphere::no_force_styles() const
   const int hooks = FixConst::PRE_FORCE | FixConst::PRE_REVERSE | FixConst::POST_FORCE |
       FixConst::PRE_FORCE_RESPA | FixConst::POST_FORCE_RESPA;
   for (int f = 0; f < modify->nfix; ++f)
-    if (modify->fmask[f] & hooks) return false;
+    if (modify->fix[f] != this && (modify->fmask[f] & hooks)) return false;
   return true;
 }
 

@@ -47,6 +47,7 @@ class FixHardSphere : public Fix {
   void pre_exchange() override;
   void post_run() override;
   void post_integrate() override;
+  void post_force(int) override;
   void end_of_step() override;
   double compute_vector(int) override;
 
@@ -269,6 +270,10 @@ class FixHardSphere : public Fix {
     HSGPU::Collide::Tally tally;
     HSGPU::Collide::ResidentReport report;
   } next;
+  // This fix's post_force() comes after every other fix's (the forces are final there): the
+  // step runs ahead from there, else from end_of_step().
+  bool ahead_at_post_force = false;
+  bool last_post_force() const;
   void run_ahead();
   int take_ahead(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   void drop_ahead();

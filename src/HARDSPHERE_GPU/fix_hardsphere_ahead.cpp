@@ -2,10 +2,11 @@
 
    With gpu/keep the device moves its own copies of x and v between steps as LAMMPS does
    (fix_hardsphere_motion.cpp); on such a step it reads nothing of the atoms' arrays but f,
-   and f is final once the step before has ended.  So at end_of_step() of step N the fix can
-   start the device step of N+1 on a host thread of its own (StepAhead) while LAMMPS writes
-   its output and integrates (fix nve/sphere's final and initial halves over every atom, on
-   one core), and post_integrate() of N+1 only waits for it and has its results written into
+   and f is final once the forces of the step before are.  So from there (this fix's
+   post_force() of step N where no other fix's comes after it, else its end_of_step()) the fix
+   can run the device step of N+1 on a host thread of its own (StepAhead) while LAMMPS
+   integrates (fix nve/sphere's final and initial halves over every atom, on one core) and
+   writes its output, and post_integrate() of N+1 only waits for it and has its results written into
    x, v and tlast (ResidentAtoms::defer_writes: nothing of the atoms' arrays is written
    before).  The step is the same step, from the same inputs: every result bit is as before.
 
@@ -21,6 +22,7 @@
 #include "atom.h"
 #include "comm.h"
 #include "error.h"
+#include "modify.h"
 #include "neighbor.h"
 #include "update.h"
 
@@ -32,8 +34,35 @@
 
 using namespace LAMMPS_NS;
 
-/* Starts step N+1 on the device (see above) where it can run ahead. */
+/* Whether no other fix's post_force() comes after this one's (LAMMPS calls them in the order
+   the fixes were defined): then f is final there, after the pair, bond, kspace styles and the
+   force fixes, and stays so through fix nve's final_integrate() and the output of the step. */
+bool FixHardSphere::last_post_force() const
+{
+  bool after = false;
+  for (int f = 0; f < modify->nfix; ++f) {
+    if (modify->fix[f] == this)
+      after = true;
+    else if (after && (modify->fmask[f] & FixConst::POST_FORCE))
+      return false;
+  }
+  return after;
+}
+
+/* The next step starts where the forces of this one are final: at this fix's post_force()
+   where it is the last, else at end_of_step(). */
+void FixHardSphere::post_force(int)
+{
+  if (ahead_at_post_force) run_ahead();
+}
+
 void FixHardSphere::end_of_step()
+{
+  if (!ahead_at_post_force) run_ahead();
+}
+
+/* Starts step N+1 on the device (see above) where it can run ahead. */
+void FixHardSphere::run_ahead()
 {
   if (next.pending) drop_ahead();    // (not taken: a step without post_integrate)
   static const bool off = [] {

@@ -188,6 +188,7 @@ std::string FixHardSphere::motion_summary() const
                                                : "";
   return fmt::format("x and v moved on the device on {} steps ({}checked against LAMMPS's on {}); "
                      "{} steps run ahead on the device during LAMMPS's integration ({} of them "
-                     "dropped)",
-                     run_sum.moved, way, run_sum.checked, run_sum.ahead, run_sum.dropped);
+                     "dropped), each from the step before's {}",
+                     run_sum.moved, way, run_sum.checked, run_sum.ahead, run_sum.dropped,
+                     ahead_at_post_force ? "post_force" : "end_of_step");
 }

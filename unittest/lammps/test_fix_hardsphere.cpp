@@ -1249,10 +1249,13 @@ TEST(FixHardSphere, KeptMotionEqualsCopiedArrays)
     const char *name;
     std::vector<std::string> extra;
     bool moved, dropped;    // x and v moved on the device; steps run ahead dropped
+    bool after = false;     // extra after the fix: a force fix whose post_force() comes later
   };
   const Case cases[] = {
       {"no forces", {}, true, false},
       {"gravity", {"fix g all gravity 0.5 vector 0 0 -1"}, true, false},
+      // The step runs ahead from end_of_step() instead of the fix's post_force().
+      {"gravity defined after the fix", {"fix g all gravity 0.5 vector 0 0 -1"}, true, false, true},
       // Per-atom virial every 7th step: those steps run on the host, and a step run ahead
       // for them is dropped.
       {"per-atom virial",
@@ -1271,8 +1274,10 @@ TEST(FixHardSphere, KeptMotionEqualsCopiedArrays)
       if (!cuda) setenv("HSGPU_RESIDENT_HOST", "1", 1);
       Lammps lmp;
       lmp.commands(setup);
-      lmp.commands(c.extra);
-      lmp.commands({fixes[k], "log " + log, "run 400", "log none"});
+      if (!c.after) lmp.commands(c.extra);
+      lmp.command(fixes[k]);
+      if (c.after) lmp.commands(c.extra);
+      lmp.commands({"log " + log, "run 400", "log none"});
       if (!cuda) unsetenv("HSGPU_RESIDENT_HOST");
       x[k] = lmp.gather("x", 3);
       v[k] = lmp.gather("v", 3);
@@ -1292,13 +1297,17 @@ TEST(FixHardSphere, KeptMotionEqualsCopiedArrays)
     const std::string line = text.substr(at, text.find('\n', at) - at);
     if (c.moved) {
       int moved = 0, checked = 0, ahead = 0, dropped = 0;
+      char from[32] = "";
       ASSERT_EQ(std::sscanf(line.c_str(),
                             "Fix hardsphere: x and v moved on the device on %d steps (rounded as "
                             "fix nve rounds them, checked against LAMMPS's on %d); %d steps run "
-                            "ahead on the device during LAMMPS's integration (%d of them dropped)",
-                            &moved, &checked, &ahead, &dropped),
-                4)
+                            "ahead on the device during LAMMPS's integration (%d of them "
+                            "dropped), each from the step before's %31s",
+                            &moved, &checked, &ahead, &dropped, from),
+                5)
           << line;
+      // From the fix's post_force() where no other fix's comes after it.
+      EXPECT_STREQ(from, c.after ? "end_of_step" : "post_force") << c.name;
       // Every step that moved x and v on the device was run ahead but those after a dropped
       // one (its kept copies went with it).
       EXPECT_GE(ahead, moved) << c.name;
