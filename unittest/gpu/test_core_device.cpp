@@ -135,8 +135,7 @@ Event random_event(Gen &g, double dt)
 CoreCase make_case(Gen &g, int k)
 {
   const int kind = k % NKINDS;
-  CoreCase c;
-  std::memset(&c, 0, sizeof(c));
+  CoreCase c{};
   Params &p = c.p;
   p.dt = g.coin() ? 0.01 : g.logu(-4, -1);
   p.tc = g.coin(0.3) ? 0.0 : g.u(0.0, 0.5 * p.dt);
@@ -202,6 +201,23 @@ CoreCase make_case(Gen &g, int k)
   }
   c.ea = random_event(g, p.dt);
   c.eb = g.coin(0.3) ? c.ea : random_event(g, p.dt);
+  // An atom between two steps: near the box's faces (or on them) where it is wrapped.
+  c.move.dtv = p.dt;
+  c.move.dtf = 0.5 * p.dt * (g.coin() ? 1.0 : g.u(0.5, 2.0));
+  c.move.wrap = g.coin(0.7);
+  for (int d = 0; d < 3; ++d) {
+    c.move.periodic[d] = g.coin(0.8);
+    c.move.lo[d] = g.coin() ? 0.0 : g.n();
+    c.move.prd[d] = c.prd[d];
+    c.move.hi[d] = c.move.lo[d] + c.move.prd[d];
+    const int where = g.i(0, 3);
+    c.mx[d] = where == 0   ? c.move.lo[d] - g.logu(-17, -1)
+              : where == 1 ? c.move.hi[d] + g.logu(-17, -1) * (g.coin(0.2) ? 0.0 : 1.0)
+                           : g.u(c.move.lo[d], c.move.hi[d]);
+    c.mv[d] = g.n();
+    c.mf[d] = g.coin(0.2) ? 0.0 : g.n() * 5.0;
+  }
+  c.mm = g.u(0.1, 3.0);
 
   switch (kind) {
   case 0:    // generic pair approaching at a moderate gap
@@ -404,6 +420,7 @@ void expect_coverage(const std::vector<CoreCase> &cases, const std::vector<CoreR
   int pair_event = 0, pair_never_mutual = 0, pair_impulse = 0, pair_degenerate = 0;
   int wall_event = 0, rested = 0, bounced = 0, image_shift = 0, half_box = 0;
   int ab = 0, ba = 0, tie = 0, elastic_guard = 0;
+  int wrapped = 0, fused_differs = 0;    // verlet_motion.h: atoms wrapped, roundings apart
   int rough_pair = 0, rough_wall = 0, smooth_spun = 0;    // friction changed a spin
   for (size_t k = 0; k < r.size(); ++k) {
     const CoreCase &c = cases[k];
@@ -438,6 +455,11 @@ void expect_coverage(const std::vector<CoreCase> &cases, const std::vector<CoreR
     }
     ab += o.earlier_ab;
     ba += o.earlier_ba;
+    for (int d = 0; d < 3; ++d) {
+      if (c.move.wrap && c.move.periodic[d] && (c.mx[d] < c.move.lo[d] || c.mx[d] >= c.move.hi[d]))
+        ++wrapped;
+      if (std::memcmp(&o.moved_x[0][d], &o.moved_x[1][d], sizeof(double)) != 0) ++fused_differs;
+    }
     if (!o.earlier_ab && !o.earlier_ba) ++tie;
     if (o.effective_restitution == 1.0 && c.e != 1.0) ++elastic_guard;
     const bool pair_spun = std::memcmp(o.pair_i.omega, c.bi.omega, sizeof(c.bi.omega)) != 0;
@@ -470,6 +492,8 @@ void expect_coverage(const std::vector<CoreCase> &cases, const std::vector<CoreR
   EXPECT_GE(rough_pair, need) << "pair collisions with friction";
   EXPECT_GE(rough_wall, need) << "wall collisions with friction";
   EXPECT_EQ(smooth_spun, 0) << "smooth spheres never change their spin";
+  EXPECT_GE(wrapped, need) << "atoms wrapped into the box between steps";
+  EXPECT_GE(fused_differs, need) << "plain and fused rounding apart";
   std::printf("[ info     ] %zu cases: pair contact finite/zero/never %d/%d/%d (%d grazing), "
               "wall contact %d/%d/%d, pair events %d (%d impulses, %d degenerate), wall events "
               "%d (%d rests), %d nonzero image shifts (%d at half a box)\n",
@@ -526,6 +550,8 @@ TEST(CoreDevice, DeviceGivesHostBits)
   HSGPU_FIELD(earlier_ab);
   HSGPU_FIELD(earlier_ba);
   HSGPU_FIELD(earlier_aa);
+  HSGPU_FIELD(moved_x);
+  HSGPU_FIELD(moved_v);
 #undef HSGPU_FIELD
   c.tally("pair_tally", &CoreResult::pair_tally);
   c.tally("wall_tally", &CoreResult::wall_tally);

@@ -2,7 +2,7 @@
    host and device compute the same bits.
 
    A CoreCase holds the inputs of every host-device function of core/ (contact.h, impulse.h,
-   trajectory.h, collision_step.h and event_order.h's earlier()); evaluate_core_case() calls
+   trajectory.h, collision_step.h, event_order.h's earlier() and verlet_motion.h); evaluate_core_case() calls
    each of them once on those inputs and stores what they return or change in a CoreResult.
    The function is defined here, host-device, so that a test evaluates the very same code on
    the host (its compiler) and, through run_core_cases_on_device(), on the device (nvcc's):
@@ -16,6 +16,7 @@
 #include "core/collision_step.h"
 #include "core/event_order.h"
 #include "core/hd.h"
+#include "core/verlet_motion.h"
 
 namespace HSGPU {
 namespace GPU {
@@ -48,6 +49,9 @@ namespace GPU {
     double xi[3], xj[3], prd[3];
     // Event order.
     Collide::Event ea, eb;
+    // An atom between two steps (verlet_motion.h): x, v, f, mass m and what LAMMPS does.
+    double mx[3], mv[3], mf[3], mm;
+    Collide::StepMotion move;
   };
 
   /// Outputs of one case, one field (or group of fields) per function call.
@@ -81,6 +85,7 @@ namespace GPU {
     int face_dim;     // face_dim(face)
     int wall_face;    // the face wall_event_time found
     int earlier_ab, earlier_ba, earlier_aa;
+    double moved_x[2][3], moved_v[2][3];    // move_between_steps(), plain [0] and fused [1]
   };
 
   /// The doubles of the tables evaluate_core_case() reads: the restitution table
@@ -152,6 +157,15 @@ namespace GPU {
     out.earlier_ab = earlier(c.ea, c.eb) ? 1 : 0;
     out.earlier_ba = earlier(c.eb, c.ea) ? 1 : 0;
     out.earlier_aa = earlier(c.ea, c.ea) ? 1 : 0;
+
+    // verlet_motion.h
+    for (int way = 0; way < 2; ++way) {
+      for (int d = 0; d < 3; ++d) {
+        out.moved_x[way][d] = c.mx[d];
+        out.moved_v[way][d] = c.mv[d];
+      }
+      move_between_steps(out.moved_x[way], out.moved_v[way], c.mf, c.mm, c.move, way == 1);
+    }
   }
 
   /// Evaluates cases[0 .. n) on CUDA device `device`, one thread per case, with the
