@@ -109,7 +109,8 @@ int FixHardSphere::take_ahead(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally
     error->one(FLERR, "Fix hardsphere: CUDA device {}: {}", backend_device, e.what());
   }
   const HSGPU::Collide::ResidentAtoms &a = next.atoms;
-  const bool still = update->ntimestep == next.step && neighbor->ncalls == next.builds &&
+  const bool still = next.report.motion == HSGPU::Collide::MotionUse::predict &&
+      update->ntimestep == next.step && neighbor->ncalls == next.builds &&
       update->dt == next.dt && resident_usable() && resident_same && !sizes_vary &&
       atom->nlocal == a.n && a.n > 0 && atom->x[0] == a.x && atom->v[0] == a.v &&
       atom->f[0] == a.f && tlast == a.tlast;

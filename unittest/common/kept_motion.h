@@ -132,7 +132,8 @@ inline void check_kept_motion(const std::function<std::unique_ptr<ResidentStep>(
     }
     EXPECT_GT(wrapped, 10) << "atoms wrapped into the box";
     EXPECT_GT(copy.pairs, 100) << "enough collisions to mean anything";
-    // After forget_host_arrays() the step has no copies to move: it copies.
+    // After forget_host_arrays() the step has no copies to move: run ahead (defer_writes) it
+    // does nothing and says so; else it copies.
     kept.rs->forget_host_arrays();
     for (int i = 0; i < n; ++i)
       verlet_between_steps(&kept.x[3 * i], &kept.v[3 * i], &g.f[3 * i], g.rmass[i], move.dtf,
@@ -144,8 +145,18 @@ inline void check_kept_motion(const std::function<std::unique_ptr<ResidentStep>(
     a.motion.move = move;
     Tally t;
     ResidentReport r;
+    a.defer_writes = true;
+    const std::vector<double> xb = kept.x, vb = kept.v, tb = kept.tlast;
+    kept.rs->run_atoms(a, g.box, g.p, g.s, t, r);
+    kept.rs->deliver_atoms();
+    EXPECT_EQ(r.motion, MotionUse::copy);
+    EXPECT_EQ(t.pair, 0) << "nothing done";
+    EXPECT_TRUE(xb == kept.x && vb == kept.v && tb == kept.tlast) << "nothing written";
+    a.defer_writes = false;
     kept.rs->run_atoms(a, g.box, g.p, g.s, t, r);
     EXPECT_EQ(r.motion, MotionUse::copy);
+    EXPECT_EQ(r.outcome, ResidentOutcome::done);
+    EXPECT_GT(t.pair, 0);
     std::printf("[ MOTION   ] %s caller: %ld collisions in 7 steps of %d atoms\n",
                 fused ? "fused" : "plain", copy.pairs, n);
   }

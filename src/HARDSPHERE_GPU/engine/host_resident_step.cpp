@@ -53,6 +53,8 @@ namespace Collide {
         const bool have = motion_kept && own && kept_x == a.x && kept_v == a.v && kept_n == n;
         motion_kept = false;
         report.motion = have ? m.use : MotionUse::copy;
+        // A step run ahead never reads the caller's x and v (as the CUDA step).
+        if (a.defer_writes && report.motion != MotionUse::predict) return;
         if (report.motion == MotionUse::check) compare_motion(a, force, report);
         if (report.motion == MotionUse::predict)
           for (int i = 0; i < n; ++i)

@@ -160,10 +160,11 @@ namespace Collide {
     // How x and v get to the step (KeptMotion); only with x, v, f of the caller's (not
     // inputs_shared, not results) and no omega.
     KeptMotion motion;
-    // The caller's x, v, omega and tlast are not written (nor read, with MotionUse::predict
-    // and same_atoms) until deliver_atoms(), which writes the results there; the step can
-    // then run while LAMMPS still integrates the atoms (FixHardSphere::end_of_step()).  Not
-    // with results.
+    // The caller's x, v, omega and tlast are not written until deliver_atoms(), which writes
+    // the results there, and x and v are not read: the step can then run while LAMMPS still
+    // integrates the atoms (FixHardSphere::run_ahead()).  Only with MotionUse::predict: where
+    // the step has no copies to move, it returns at once with ResidentReport::motion copy and
+    // nothing done.  Not with results.
     bool defer_writes = false;
   };
 

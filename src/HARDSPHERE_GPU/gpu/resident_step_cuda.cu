@@ -1398,6 +1398,9 @@ namespace Collide {
       report.motion = have ? m.use : MotionUse::copy;
       const bool moved = report.motion == MotionUse::predict;
       const bool check = report.motion == MotionUse::check;
+      // A step run ahead never reads the caller's x and v (LAMMPS may be integrating them):
+      // without copies to move it does nothing, and the caller sees report.motion.
+      if (a.defer_writes && !moved) return;
       if (check) {
         // The kept copies aside (the buffers traded, nothing copied), before x and v come up.
         d_kx.swap(d_ax);
