@@ -277,6 +277,7 @@ class FixHardSphere : public Fix {
   void run_ahead();
   int take_ahead(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   void drop_ahead();
+  void forget_ahead();
   // gpu yes on several ranks with gpu/gather yes: each step's atoms (of the group) gathered on
   // rank 0, whose `resident` step runs it (step_gathered(); the same on every rank).
   bool gather_step = false;
@@ -377,6 +378,9 @@ class FixHardSphere : public Fix {
   HSGPU::Collide::ResidentBox resident_box() const;
   HSGPU::Collide::ResidentAtoms resident_atoms(const Source &s, bool same) const;
   void count_resident(const HSGPU::Collide::ResidentReport &report);
+  void atoms_stepped(const HSGPU::Collide::ResidentReport &report);
+  int resident_outcome(const HSGPU::Collide::ResidentReport &report,
+                       const HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all, bool whole);
   void report_overlap(int npush, int left);
   void prepare(double drift_dt);
   int overlap_pass(double drift_dt, int pass, double &moved);

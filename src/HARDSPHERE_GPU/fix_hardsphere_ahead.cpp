@@ -115,16 +115,13 @@ int FixHardSphere::take_ahead(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally
       atom->nlocal == a.n && a.n > 0 && atom->x[0] == a.x && atom->v[0] == a.v &&
       atom->f[0] == a.f && tlast == a.tlast;
   if (!still) {
-    resident->forget_host_arrays();    // its results, and the copies that ran ahead with it
-    resident_same = false;
-    run_sum.dropped++;
+    forget_ahead();
     return -1;
   }
   resident_same = false;
   const HSGPU::Collide::ResidentReport &report = next.report;
   mine = next.tally;
-  motion_seen(report);
-  check_budget(report.vmax2, report.amax, report.rmax);
+  atoms_stepped(report);
   if (report.outcome == HSGPU::Collide::ResidentOutcome::done) {
     try {
       resident->deliver_atoms();
@@ -132,12 +129,7 @@ int FixHardSphere::take_ahead(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally
       error->one(FLERR, "Fix hardsphere: CUDA device {}: {}", backend_device, e.what());
     }
   }
-  count_resident(report);
-  if (report.outcome != HSGPU::Collide::ResidentOutcome::done) return 0;
-  all = mine;
-  resident_same = true;
-  vend2 = report.vend2;
-  return 2;
+  return resident_outcome(report, mine, all, true);
 }
 
 /* A step run ahead that will not be taken (a run ends, another starts). */
@@ -150,6 +142,13 @@ void FixHardSphere::drop_ahead()
   } catch (std::exception &) {
     // dropped anyway
   }
+  forget_ahead();
+}
+
+/* A step run ahead, waited for, not taken: its results and the copies that ran ahead with it
+   are let go, and the next step copies everything again. */
+void FixHardSphere::forget_ahead()
+{
   resident->forget_host_arrays();
   resident_same = false;
   run_sum.dropped++;

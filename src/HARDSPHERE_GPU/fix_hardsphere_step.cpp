@@ -1335,7 +1335,7 @@ void FixHardSphere::count_resident(const HSGPU::Collide::ResidentReport &report)
 int FixHardSphere::step_resident(Tally &mine, Tally &all)
 {
   if (comm->nprocs > 1) return step_gathered(mine, all);
-  // This step run ahead during LAMMPS's integration (end_of_step()), where nothing changed.
+  // This step run ahead during LAMMPS's integration (run_ahead()), where nothing changed.
   if (next.pending) {
     const int taken = take_ahead(mine, all);
     if (taken >= 0) return taken;
@@ -1365,10 +1365,7 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
       // gpu/keep: x and v moved on the device where nothing else changed them.
       a.motion = kept_motion(same);
       resident->run_atoms(a, box, step_params(), wsettings, mine, report);
-      motion_seen(report);
-      if (forces_none && !forces_checked) forces_seen(report.amax);
-      // The budget's checks, and bound_floor for the host should the device decline.
-      check_budget(report.vmax2, report.amax, report.rmax);
+      atoms_stepped(report);
     } else {
       gather_bodies(dt);
       sboost.assign(atom->nlocal, 0.0);
@@ -1382,13 +1379,31 @@ int FixHardSphere::step_resident(Tally &mine, Tally &all)
     error->one(FLERR, "Fix hardsphere: CUDA device {}: {}", backend_device, e.what());
   }
   t_search += t_gather;
+  return resident_outcome(report, mine, all, whole);
+}
+
+/* After run_atoms() over the atoms' arrays (in this step, or run ahead): what its check of x
+   and v found, the forces it saw, and the budget's checks (with bound_floor for the host
+   should the device decline). */
+void FixHardSphere::atoms_stepped(const HSGPU::Collide::ResidentReport &report)
+{
+  motion_seen(report);
+  if (forces_none && !forces_checked) forces_seen(report.amax);
+  check_budget(report.vmax2, report.amax, report.rmax);
+}
+
+/* The end of a resident step of one rank: its counters; 0 where the device handed it back,
+   else 2 with group all (the atoms' arrays hold the results: the device also shifted every
+   atom's time of last collision to the end of this step) or 1 (the results in bodies). */
+int FixHardSphere::resident_outcome(const HSGPU::Collide::ResidentReport &report,
+                                    const HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all,
+                                    bool whole)
+{
   count_resident(report);
   if (report.outcome != HSGPU::Collide::ResidentOutcome::done) return 0;
   all = mine;
   resident_same = whole;
   if (whole) vend2 = report.vend2;    // the atoms' speeds at the step end
-  // With group all the device also shifted every atom's time of last collision to the end of
-  // this step.
   return whole ? 2 : 1;
 }
 

@@ -50,9 +50,7 @@ namespace Collide {
         // (ResidentAtoms::motion), as the CUDA step does.
         const KeptMotion &m = a.motion;
         const bool own = !a.results && !a.omega && !a.inputs_shared;
-        const bool have = motion_kept && own && kept_x == a.x && kept_v == a.v && kept_n == n;
-        motion_kept = false;
-        report.motion = have ? m.use : MotionUse::copy;
+        report.motion = motion_begin(a, own);
         // A step run ahead never reads the caller's x and v (as the CUDA step).
         if (a.defer_writes && report.motion != MotionUse::predict) return;
         if (report.motion == MotionUse::check) compare_motion(a, force, report);
@@ -141,10 +139,7 @@ namespace Collide {
           if (a.omega)
             for (int d = 0; d < 3; ++d) a.omega[3 * i + d] = b.omega[d];
         }
-        motion_kept = keep;
-        kept_x = a.x;
-        kept_v = a.v;
-        kept_n = n;
+        motion_done(a, keep);
         if (defer) {
           later.pending = true;
           later.x = a.x;
@@ -168,7 +163,7 @@ namespace Collide {
 
       void forget_host_arrays() override
       {
-        motion_kept = false;
+        motion_forget();
         later = Later();
       }
 
@@ -196,12 +191,9 @@ namespace Collide {
         std::vector<double> tlast;
         double *x = nullptr, *v = nullptr, *tlast_to = nullptr;
       } later;
-      // Copies of x and v as the last done run_atoms() with KeptMotion::keep left them, of the
-      // caller's arrays kept_x, kept_v of kept_n atoms.
-      bool motion_kept = false;
+      // Copies of x and v as the last done run_atoms() with KeptMotion::keep left them
+      // (ResidentStep::motion_done()).
       std::vector<double> kx, kv;
-      const double *kept_x = nullptr, *kept_v = nullptr;
-      int kept_n = -1;
       std::vector<Body> atoms;    // the step's bodies, resolved in place
       std::vector<double> bound;
       std::vector<Edge> edges;

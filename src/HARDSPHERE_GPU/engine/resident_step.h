@@ -264,6 +264,32 @@ namespace Collide {
 
    protected:
     bool serial = false;
+
+    /// The kept copies of x and v (ResidentAtoms::motion), the same rule for every
+    /// implementation.  motion_begin(): at the start of run_atoms(), how this step gets x and
+    /// v: the caller's KeptMotion::use where the copies kept are of these arrays (own: the
+    /// step reads the caller's x and v, not shared or listed results), else copy; until
+    /// motion_done() the step keeps none.  motion_done(): a done step kept copies (keep) of
+    /// a's arrays as it leaves them.  motion_forget(): none kept (forget_host_arrays()).
+    MotionUse motion_begin(const ResidentAtoms &a, bool own)
+    {
+      const bool have = motion_kept && own && motion_x == a.x && motion_v == a.v && motion_n == a.n;
+      motion_kept = false;
+      return have ? a.motion.use : MotionUse::copy;
+    }
+    void motion_done(const ResidentAtoms &a, bool keep)
+    {
+      motion_kept = keep;
+      motion_x = a.x;
+      motion_v = a.v;
+      motion_n = a.n;
+    }
+    void motion_forget() { motion_kept = false; }
+
+   private:
+    bool motion_kept = false;
+    const double *motion_x = nullptr, *motion_v = nullptr;
+    int motion_n = -1;
   };
 
   /// The host's reference implementation (engine/host_resident_step.cpp): the same contract

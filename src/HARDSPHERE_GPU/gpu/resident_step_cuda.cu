@@ -235,11 +235,8 @@ namespace Collide {
       const void *kept_host[NLOCKED] = {};
       size_t kept_bytes[NLOCKED] = {};
       // d_ax and d_av hold x and v as the last done run_atoms() with KeptMotion::keep left
-      // them, for the caller's arrays motion_host[0], [1] of motion_n atoms; d_kx, d_kv: the
-      // kept copies set aside on a check (traded with d_ax, d_av).
-      bool motion_kept = false;
-      const void *motion_host[2] = {};
-      int motion_n = -1;
+      // them (ResidentStep::motion_done()); d_kx, d_kv: the kept copies set aside on a check
+      // (traded with d_ax, d_av).
       DeviceBuffer d_kx, d_kv;
 
      public:
@@ -332,7 +329,7 @@ namespace Collide {
         cudaSetDevice(device);
         for (HostRangeLock &l : locked) l.release();
         kept = false;
-        motion_kept = false;
+        motion_forget();
         later = Later();
       }
 
@@ -1391,11 +1388,8 @@ namespace Collide {
       // integrator moved the caller's since (ResidentAtoms::motion).
       const KeptMotion &m = a.motion;
       const bool own = !a.results && !a.inputs_shared && !(p.friction && a.omega);
-      const bool have = motion_kept && own && motion_host[0] == a.x && motion_host[1] == a.v &&
-          motion_n == n;
       const bool keep_motion = m.keep && own;
-      motion_kept = false;    // until this step is done
-      report.motion = have ? m.use : MotionUse::copy;
+      report.motion = motion_begin(a, own);
       const bool moved = report.motion == MotionUse::predict;
       const bool check = report.motion == MotionUse::check;
       // A step run ahead never reads the caller's x and v (LAMMPS may be integrating them):
@@ -1549,10 +1543,7 @@ namespace Collide {
       // d_ax, d_av: x and v as the caller's arrays now hold them (the whole copies and the
       // direct writes carry the changed atoms into them, the kernel above where the host
       // writes them).
-      motion_kept = keep_motion;
-      motion_host[0] = a.x;
-      motion_host[1] = a.v;
-      motion_n = n;
+      motion_done(a, keep_motion);
     }
 
   }    // namespace
