@@ -488,8 +488,6 @@ void FixHardSphere::init()
                update->dt);
   check_other_fixes();
   forces_none = no_force_styles();
-  motion_known = motion_fixes_known(motion_why);
-  ahead_at_post_force = last_post_force();
 
   // Friction turns spin into translation through the moment of inertia k m r^2: k follows the
   // integrator that moves these atoms' omega (fix nve/sphere and the nvt, npt, nph/sphere
@@ -593,6 +591,9 @@ void FixHardSphere::init()
     wsettings.floor_fraction = HSGPU::Collide::STEP_FLOOR_FRACTION;
   }
   setup_backend();
+  // gpu/keep and the step run ahead (after setup_backend(): gather_step).
+  motion_known = motion_fixes_known(motion_why);
+  ahead_at_post_force = last_post_force();
 }
 
 /* Two fix hardsphere acting on one atom would each resolve its collisions with its own
@@ -900,7 +901,7 @@ void FixHardSphere::restart(char *buf)
 void FixHardSphere::grow_arrays(int nmax)
 {
   // LAMMPS has grown (moved) its per-atom arrays: the device step lets go of the old ones.
-  drop_ahead();
+  spoil_ahead();
   if (resident) resident->forget_host_arrays();
   if (peer) peer->forget_host_arrays();
   resident_same = false;

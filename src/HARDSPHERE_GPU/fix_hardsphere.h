@@ -258,9 +258,53 @@ class FixHardSphere : public Fix {
   // The next step run ahead on the device while LAMMPS integrates (fix_hardsphere_ahead.cpp):
   // started at end_of_step() where that step can move x and v on the device, taken by the
   // next post_integrate() (or dropped, where something changed in between).
+  // The gathered step of several ranks (fix_hardsphere_gathered.cpp): what its first half
+  // (the atoms to rank 0) leaves for its second (the result back), which runs in the same
+  // post_integrate(), or in the next one where the step runs ahead.
+  struct GatheredSend {
+    long n = 0;               // atoms of all ranks
+    int nlocal = 0;           // of this rank
+    bool whole = true;        // group all: LAMMPS's arrays, else the group's atoms packed
+    bool same = false;        // no rank's atoms moved in its arrays since the last such step
+    bool shared = false;      // in rank 0's device buffers (CUDA IPC), else its host's
+    bool no_forces = false;   // f not sent (zero)
+    double t_gather = 0.0;    // seconds sending
+    double moved = 0.0;       // bytes this rank received
+  };
+  // What rank 0 sends every rank after its step: the outcome, the tally and the report's
+  // figures.  One broadcast of doubles (the counts are far below 2^53).
+  struct GatheredResult {
+    double outcome, pair, wall, rest, events, capped, ke_lost;
+    double vmax2, amax, rmax, vend2, candidates, redone;
+    double t_search, t_resolve, t_upload, t_download, bytes_up;
+    double largest_group, groups, windows, repairs;
+  };
+  void gathered_send(GatheredSend &s, bool unchanged);
+  HSGPU::Collide::ResidentAtoms gathered_atoms(const GatheredSend &s);
+  GatheredResult gathered_result(const HSGPU::Collide::ResidentReport &report,
+                                 const HSGPU::Collide::Tally &mine) const;
+  int gathered_finish(const GatheredSend &s, GatheredResult r, HSGPU::Collide::Tally &all);
+  // gpu/keep on several ranks: each rank's x, v and f at post_force() of the step before a
+  // check (motion_snapshot()), compared at the next post_integrate() with what fix nve made
+  // of them (motion_check_gathered()).
+  struct MotionCheck {
+    bool pending = false;
+    bigint step = -1;
+    int n = -1;
+    const double *x = nullptr, *v = nullptr;    // LAMMPS's arrays then
+    std::vector<double> x0, v0, f0;             // f0 empty: no forces
+  } mcheck;
+  HSGPU::Collide::StepMotion gathered_motion() const;
+  void motion_snapshot();
+  void motion_check_gathered();
   std::unique_ptr<StepAhead> ahead;
   struct Ahead {
     bool pending = false;
+    // Several ranks (run_ahead_gathered()): something changed under it on this rank after it
+    // started (its arrays grew); the step is dropped on every rank when it is due.
+    bool spoiled = false;
+    int nlocal = -1;    // this rank's atoms and arrays when it started (several ranks)
+    const double *x = nullptr, *v = nullptr, *f = nullptr, *tlast = nullptr;
     bigint step = -1;      // the step it is
     bigint builds = -1;    // neighbor->ncalls when it started
     double dt = 0.0;
@@ -269,6 +313,7 @@ class FixHardSphere : public Fix {
     HSGPU::Collide::Params params{};
     HSGPU::Collide::Tally tally;
     HSGPU::Collide::ResidentReport report;
+    GatheredSend send;    // several ranks: the first half of the gathered step
   } next;
   // This fix's post_force() comes after every other fix's (the forces are final there): the
   // step runs ahead from there, else from end_of_step().
@@ -278,6 +323,9 @@ class FixHardSphere : public Fix {
   int take_ahead(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   void drop_ahead();
   void forget_ahead();
+  void spoil_ahead();
+  void run_ahead_gathered();
+  int take_ahead_gathered(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   // gpu yes on several ranks with gpu/gather yes: each step's atoms (of the group) gathered on
   // rank 0, whose `resident` step runs it (step_gathered(); the same on every rank).
   bool gather_step = false;

@@ -22,6 +22,7 @@
 #include "atom.h"
 #include "comm.h"
 #include "error.h"
+#include "force.h"
 #include "modify.h"
 #include "neighbor.h"
 #include "update.h"
@@ -61,15 +62,28 @@ void FixHardSphere::end_of_step()
   if (!ahead_at_post_force) run_ahead();
 }
 
-/* Starts step N+1 on the device (see above) where it can run ahead. */
-void FixHardSphere::run_ahead()
+namespace {
+
+bool ahead_off()
 {
-  if (next.pending) drop_ahead();    // (not taken: a step without post_integrate)
   static const bool off = [] {
     const char *e = std::getenv("HSGPU_RESIDENT_AHEAD");
     return e && std::strcmp(e, "0") == 0;
   }();
-  if (off || !resident || comm->nprocs != 1 || igroup != 0 || gather_step) return;
+  return off;
+}
+
+}    // namespace
+
+/* Starts step N+1 on the device (see above) where it can run ahead. */
+void FixHardSphere::run_ahead()
+{
+  if (next.pending) drop_ahead();    // (not taken: a step without post_integrate)
+  if (comm->nprocs > 1) {
+    run_ahead_gathered();
+    return;
+  }
+  if (ahead_off() || !resident || igroup != 0 || gather_step) return;
   if (update->ntimestep >= update->laststep) return;    // no next step in this run
   if (!(resident_same && !sizes_vary) || (forces_none && !forces_checked)) return;
   const HSGPU::Collide::KeptMotion m = kept_motion(true);
@@ -132,13 +146,14 @@ int FixHardSphere::take_ahead(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally
   return resident_outcome(report, mine, all, true);
 }
 
-/* A step run ahead that will not be taken (a run ends, another starts). */
+/* A step run ahead that will not be taken (a run ends, another starts; on several ranks
+   called by every rank at the same point). */
 void FixHardSphere::drop_ahead()
 {
   if (!next.pending) return;
   next.pending = false;
   try {
-    ahead->wait();
+    if (ahead) ahead->wait();
   } catch (std::exception &) {
     // dropped anyway
   }
@@ -149,7 +164,133 @@ void FixHardSphere::drop_ahead()
    are let go, and the next step copies everything again. */
 void FixHardSphere::forget_ahead()
 {
-  resident->forget_host_arrays();
+  if (resident) resident->forget_host_arrays();
   resident_same = false;
   run_sum.dropped++;
+}
+
+/* This rank's arrays change under a step run ahead (grow_arrays()): on one rank it is dropped;
+   on several it is waited for here (rank 0's device step lets go of arrays next) and dropped
+   on every rank where it is due (take_ahead_gathered()). */
+void FixHardSphere::spoil_ahead()
+{
+  if (!next.pending) return;
+  if (comm->nprocs == 1) {
+    drop_ahead();
+    return;
+  }
+  next.spoiled = true;
+  try {
+    if (ahead) ahead->wait();
+  } catch (std::exception &) {
+    // dropped when due
+  }
+}
+
+/* --- several ranks: the gathered step run ahead ------------------------------------------
+
+   With gpu/gather yes rank 0's device steps every rank's atoms, which it gets from them each
+   step (fix_hardsphere_gathered.cpp).  Where the fixes allow gpu/keep (motion_known: group
+   all, smooth spheres, fix nve or nve/sphere of all and only harmless fixes besides) and this
+   fix's post_force() comes last, every rank sends its x, v and f at post_force() of step N
+   (with tlast, radius, ... where atoms moved in the arrays: LAMMPS exchanged and sorted them
+   just before), and rank 0's device moves x and v as fix nve will (final_integrate() of N,
+   initial_integrate() of N+1: MotionUse::advance) and runs step N+1 on rank 0's host thread
+   while every rank integrates.  post_integrate() of N+1 takes it where nothing changed on any
+   rank (one reduction), and the results go back as always.  The integrator's rounding is
+   checked on the host of every rank (motion_check_gathered()) on the run's first step with
+   the atoms' arrays as post_force() left them and after every MOTION_AUDIT steps run ahead;
+   no step runs ahead while it is unknown, or where neither rounding fits.  All conditions are
+   the same on every rank (the fixes, the counters, rank 0's broadcast results), so every
+   rank takes the same branch at each collective. */
+
+/* The integrator's move from post_force() of one step to post_integrate() of the next. */
+HSGPU::Collide::StepMotion FixHardSphere::gathered_motion() const
+{
+  HSGPU::Collide::StepMotion m;
+  m.dtf = 0.5 * update->dt * force->ftm2v;    // as fix nve's init()
+  m.dtv = update->dt;
+  m.wrap = false;    // LAMMPS wraps the atoms after post_integrate(), not before
+  return m;
+}
+
+void FixHardSphere::run_ahead_gathered()
+{
+  if (!gather_step || !motion_known || !ahead_at_post_force || igroup != 0) return;
+  if (update->ntimestep >= update->laststep) return;    // no next step in this run
+  if ((forces_none && !forces_checked) || motion_way == MOTION_OFF) return;
+  if (motion_way == MOTION_UNKNOWN || motion_unchecked >= MOTION_AUDIT) {
+    motion_snapshot();
+    return;
+  }
+  if (ahead_off()) return;
+  const double t_start = MPI_Wtime();
+  const bool unchanged = resident_same && !sizes_vary;
+  resident_same = false;
+  gathered_send(next.send, unchanged);
+  next.pending = true;
+  next.spoiled = false;
+  next.step = update->ntimestep + 1;
+  next.builds = neighbor->ncalls;
+  next.dt = update->dt;
+  const Source src = atom_source();
+  next.nlocal = src.n;
+  next.x = src.x;
+  next.v = src.v;
+  next.f = src.f;
+  next.tlast = tlast;
+  if (comm->me == 0) {
+    next.atoms = gathered_atoms(next.send);
+    next.atoms.motion.use = HSGPU::Collide::MotionUse::advance;
+    next.atoms.motion.fused = motion_way == MOTION_FUSED;
+    next.atoms.motion.move = gathered_motion();
+    next.box = resident_box();
+    next.params = step_params();
+    next.tally = HSGPU::Collide::Tally();
+    next.report = HSGPU::Collide::ResidentReport();
+    if (!ahead) ahead.reset(new StepAhead());
+    ahead->start([this] {
+      resident->run_atoms(next.atoms, next.box, next.params, wsettings, next.tally, next.report);
+    });
+  }
+  run_sum.ahead++;
+  const double spent = MPI_Wtime() - t_start;
+  t_step += spent;
+  run_sum.t_step += spent;
+}
+
+/* post_integrate() of the gathered step run ahead (on every rank): its result where nothing
+   it assumed changed on any rank (2 where the device did the step, 0 where it handed it back),
+   else -1 with the step dropped on every rank. */
+int FixHardSphere::take_ahead_gathered(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all)
+{
+  next.pending = false;
+  const Source src = atom_source();
+  int ok = !next.spoiled && update->ntimestep == next.step && neighbor->ncalls == next.builds &&
+      update->dt == next.dt && resident_usable() && src.n == next.nlocal && src.x == next.x &&
+      src.v == next.v && src.f == next.f && tlast == next.tlast;
+  int all_ok = 0;
+  MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, world);
+  count_collective(sizeof(int));
+  if (comm->me == 0) {
+    try {
+      ahead->wait();
+    } catch (std::exception &e) {
+      error->one(FLERR, "Fix hardsphere: CUDA device {}: {}", backend_device, e.what());
+    }
+  }
+  if (!all_ok) {
+    forget_ahead();
+    return -1;
+  }
+  resident_same = false;
+  run_sum.moved++;
+  motion_unchecked++;
+  mine = HSGPU::Collide::Tally();
+  GatheredResult r = {};
+  if (comm->me == 0) {
+    mine = next.tally;
+    r = gathered_result(next.report, mine);
+  }
+  return gathered_finish(next.send, r, all);
 }

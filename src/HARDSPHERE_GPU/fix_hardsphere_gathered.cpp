@@ -38,20 +38,6 @@
 using namespace LAMMPS_NS;
 using HSGPU::Collide::Tally;
 
-namespace {
-
-// What rank 0 sends every rank after its step: the outcome, the tally and the report's
-// figures.  One broadcast of doubles (the counts are far below 2^53).
-struct GatheredResult {
-  double outcome, pair, wall, rest, events, capped, ke_lost;
-  double vmax2, amax, rmax, vend2, candidates, redone;
-  double t_search, t_resolve, t_upload, t_download, bytes_up;
-  double largest_group, groups, windows, repairs;
-};
-constexpr int NRESULT = (int) (sizeof(GatheredResult) / sizeof(double));
-
-}    // namespace
-
 /* Each rank's x, v and f (nlocal atoms of src) into rank 0's device buffers for the step of
    all n atoms, and with `statics` their tlast, radius, rmass, type and id too, where every
    rank can open them (ResidentStep::share_inputs(), GPU::PeerInputs: CUDA IPC, ranks of one
@@ -136,17 +122,52 @@ bool FixHardSphere::share_inputs(long n, int nlocal, const Source &src, bool sta
    atoms' arrays hold the results), else 0 with nothing changed. */
 int FixHardSphere::step_gathered(Tally &mine, Tally &all)
 {
-  const int np = comm->nprocs, me = comm->me;
-  const bool whole = igroup == 0;
-  // Per rank: its atoms, and whether its arrays hold what the last gathered step left there
-  // (with another group never: its atoms are packed anew every step).
-  const bool unchanged = whole && resident_same && !sizes_vary;
+  // gpu/keep: the check of the integrator's rounding set up at the last post_force(), and the
+  // step run ahead from there (fix_hardsphere_ahead.cpp).
+  if (mcheck.pending) motion_check_gathered();
+  if (next.pending) {
+    const int taken = take_ahead_gathered(mine, all);
+    if (taken >= 0) return taken;
+  }
+  // Per rank: whether its arrays hold what the last gathered step left there (with another
+  // group never: its atoms are packed anew every step).
+  const bool unchanged = igroup == 0 && resident_same && !sizes_vary;
   resident_same = false;
   if (!resident_usable()) return 0;
+  GatheredSend s;
+  gathered_send(s, unchanged);
+  mine = Tally();
+  GatheredResult r = {};
+  if (comm->me == 0) {
+    HSGPU::Collide::ResidentReport report;
+    const HSGPU::Collide::ResidentAtoms a = gathered_atoms(s);
+    try {
+      resident->run_atoms(a, resident_box(), step_params(), wsettings, mine, report);
+    } catch (std::exception &e) {
+      error->one(FLERR,
+                 "Fix hardsphere: CUDA device {} (the step of all {} atoms of the ranks, "
+                 "gpu/gather yes): {}; with gpu/gather no each rank's device takes only the "
+                 "groups of its own atoms",
+                 backend_device, s.n, e.what());
+    }
+    r = gathered_result(report, mine);
+  }
+  return gathered_finish(s, r, all);
+}
+
+/* The first half of the gathered step: every rank's atoms (x, v, f, and where some rank's atoms
+   moved in its arrays since the last such step also tlast, radius, rmass, type, id) to rank 0's
+   device, or its host.  unchanged: this rank's arrays hold what the last gathered step left. */
+void FixHardSphere::gathered_send(GatheredSend &s, bool unchanged)
+{
+  const int np = comm->nprocs, me = comm->me;
+  s = GatheredSend();
+  s.whole = igroup == 0;
   // The atoms this rank sends: LAMMPS's arrays with group all, else its group's atoms packed
   // (gath.lidx: their indices here).
-  Source src = gathered_source();
+  const Source src = gathered_source();
   const int nlocal = src.n;
+  s.nlocal = nlocal;
   int head[2] = {nlocal, unchanged ? 1 : 0};
   gath.head.resize(2 * (size_t) np);
   MPI_Allgather(head, 2, MPI_INT, gath.head.data(), 2, MPI_INT, world);
@@ -177,24 +198,19 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
     gath.displ[p] = off;
     off += gath.head[2 * p];
   }
-  // One array of `per` values per atom, from every rank to rank 0 or back.
-  double moved = 0.0;    // bytes this rank received
-  auto counts = [&](int per) {
-    if (me != 0) return;
-    for (int p = 0; p < np; ++p) {
-      gath.vcount[p] = per * gath.head[2 * p];
-      gath.vdispl[p] = per * gath.displ[p];
-    }
-  };
+  // One array of `per` values per atom, from every rank to rank 0.
   auto gather = [&](void *mine_, int per, MPI_Datatype type, void *all_) {
-    counts(per);
+    if (me == 0)
+      for (int p = 0; p < np; ++p) {
+        gath.vcount[p] = per * gath.head[2 * p];
+        gath.vdispl[p] = per * gath.displ[p];
+      }
     MPI_Gatherv(mine_, per * nlocal, type, all_, gath.vcount.data(), gath.vdispl.data(), type, 0,
                 world);
     int size = 0;
     MPI_Type_size(type, &size);
-    if (me == 0) moved += (double) size * per * (n - nlocal);
+    if (me == 0) s.moved += (double) size * per * (n - nlocal);
   };
-  double *x0 = src.x, *v0 = src.v, *f0 = src.f, *w0 = src.omega;
   // No force styles (the same on every rank): f stays where it is after the run's first step
   // found it zero, as on one rank.
   const bool no_forces = forces_none && forces_checked;
@@ -202,11 +218,11 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
   // IPC): each rank copies its own atoms there, all at once; else through rank 0's host.
   const bool shared = share_inputs(n, nlocal, src, !same, no_forces);
   if (!shared) {
-    gather(x0, 3, MPI_DOUBLE, gath.all.x.data());
-    gather(v0, 3, MPI_DOUBLE, gath.all.v.data());
-    if (!no_forces) gather(f0, 3, MPI_DOUBLE, gath.all.f.data());
+    gather(src.x, 3, MPI_DOUBLE, gath.all.x.data());
+    gather(src.v, 3, MPI_DOUBLE, gath.all.v.data());
+    if (!no_forces) gather(src.f, 3, MPI_DOUBLE, gath.all.f.data());
+    if (friction_on) gather(src.omega, 3, MPI_DOUBLE, gath.all.omega.data());
   }
-  if (friction_on && !shared) gather(w0, 3, MPI_DOUBLE, gath.all.omega.data());
   // The rest only where some rank's atoms moved in its arrays (the device keeps its copies),
   // and with the copies above already in place.
   if (!same && !shared) {
@@ -216,59 +232,67 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
     gather(src.type, 1, MPI_INT, gath.all.type.data());
     gather(src.id, 1, MPI_LMP_TAGINT, gath.all.id.data());
   }
-  const double t_gather = MPI_Wtime() - t_start;
+  s.n = n;
+  s.same = same;
+  s.shared = shared;
+  s.no_forces = no_forces;
+  s.t_gather = MPI_Wtime() - t_start;
+}
 
-  mine = Tally();
-  GatheredResult r = {};
-  if (me == 0) {
-    HSGPU::Collide::ResidentReport report;
-    HSGPU::Collide::ResidentAtoms a = resident_atoms(gath.all.view((int) n, friction_on), same);
-    a.inputs_shared = shared;
-    a.zero_forces = no_forces;
-    a.statics_shared = shared && !same;
-    a.spin_shared = shared && friction_on;
-    a.results = &gath.results;    // the atoms with events listed, to go back to their ranks
-    a.result_spin = &gath.rspin;
-    try {
-      resident->run_atoms(a, resident_box(), step_params(), wsettings, mine, report);
-    } catch (std::exception &e) {
-      error->one(FLERR,
-                 "Fix hardsphere: CUDA device {} (the step of all {} atoms of the ranks, "
-                 "gpu/gather yes): {}; with gpu/gather no each rank's device takes only the "
-                 "groups of its own atoms",
-                 backend_device, n, e.what());
-    }
-    r = {(double) report.outcome,
-         (double) mine.pair,
-         (double) mine.wall,
-         (double) mine.rest,
-         (double) mine.events,
-         (double) mine.capped,
-         mine.ke_lost,
-         report.vmax2,
-         report.amax,
-         report.rmax,
-         report.vend2,
-         (double) report.candidates,
-         (double) report.redone,
-         report.t_search,
-         report.t_resolve,
-         report.t_upload,
-         report.t_download,
-         (double) report.bytes_up,
-         (double) report.stats.largest_group,
-         (double) report.stats.groups,
-         (double) report.stats.windows,
-         (double) report.stats.repairs};
-  }
-  MPI_Bcast(&r, NRESULT, MPI_DOUBLE, 0, world);
+/* Rank 0: the gathered step's atoms, as gathered_send() left them. */
+HSGPU::Collide::ResidentAtoms FixHardSphere::gathered_atoms(const GatheredSend &s)
+{
+  HSGPU::Collide::ResidentAtoms a = resident_atoms(gath.all.view((int) s.n, friction_on), s.same);
+  a.inputs_shared = s.shared;
+  a.zero_forces = s.no_forces;
+  a.statics_shared = s.shared && !s.same;
+  a.spin_shared = s.shared && friction_on;
+  a.results = &gath.results;    // the atoms with events listed, to go back to their ranks
+  a.result_spin = &gath.rspin;
+  return a;
+}
+
+/* Rank 0: what it sends every rank after its step. */
+FixHardSphere::GatheredResult FixHardSphere::gathered_result(
+    const HSGPU::Collide::ResidentReport &report, const Tally &mine) const
+{
+  return {(double) report.outcome,
+          (double) mine.pair,
+          (double) mine.wall,
+          (double) mine.rest,
+          (double) mine.events,
+          (double) mine.capped,
+          mine.ke_lost,
+          report.vmax2,
+          report.amax,
+          report.rmax,
+          report.vend2,
+          (double) report.candidates,
+          (double) report.redone,
+          report.t_search,
+          report.t_resolve,
+          report.t_upload,
+          report.t_download,
+          (double) report.bytes_up,
+          (double) report.stats.largest_group,
+          (double) report.stats.groups,
+          (double) report.stats.windows,
+          (double) report.stats.repairs};
+}
+
+/* The second half: rank 0's result r to every rank, the results back into the atoms' arrays,
+   the counters.  Returns 2 where the device did the step, else 0 with nothing changed. */
+int FixHardSphere::gathered_finish(const GatheredSend &s, GatheredResult r, Tally &all)
+{
+  MPI_Bcast(&r, (int) (sizeof(r) / sizeof(double)), MPI_DOUBLE, 0, world);
   count_collective(sizeof(r));
+  double moved = s.moved;    // bytes this rank received
   HSGPU::Collide::ResidentReport report;
   report.outcome = (HSGPU::Collide::ResidentOutcome)(int) r.outcome;
   report.vend2 = r.vend2;
   report.candidates = (long) r.candidates;
   report.redone = (int) r.redone;
-  report.t_search = r.t_search + t_gather;    // the gather counts as the step's upload
+  report.t_search = r.t_search + s.t_gather;    // the gather counts as the step's upload
   report.t_resolve = r.t_resolve;
   report.t_upload = r.t_upload;
   report.t_download = r.t_download;
@@ -285,13 +309,13 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
     // velocity, time of last collision (and spin); every other atom's time of last collision
     // is shifted to the step end here, as the device did (max(t - dt, never)).
     const double t0 = MPI_Wtime();
-    if (!(shared && gath.ipc_results && results_shared(nlocal, whole, moved)))
-      results_mpi(nlocal, whole, moved);
+    if (!(s.shared && gath.ipc_results && results_shared(s.nlocal, s.whole, moved)))
+      results_mpi(s.nlocal, s.whole, moved);
     report.t_resolve += MPI_Wtime() - t0;
     run_sum.t_gather += MPI_Wtime() - t0;
     run_sum.t_back += MPI_Wtime() - t0;
   }
-  run_sum.t_gather += t_gather;
+  run_sum.t_gather += s.t_gather;
   // The gathers and scatters as one collective, with the bytes this rank received.
   count_collective(moved);
   count_resident(report);
@@ -305,7 +329,7 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
   all.events = (long) r.events;
   all.capped = (int) r.capped;
   all.ke_lost = r.ke_lost;
-  resident_same = whole;
+  resident_same = s.whole;
   vend2 = report.vend2;
   return 2;
 }

@@ -24,6 +24,7 @@
    something this list calls harmless changed x or v. */
 #include "fix_hardsphere.h"
 
+#include "atom.h"
 #include "comm.h"
 #include "domain.h"
 #include "error.h"
@@ -37,6 +38,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <mpi.h>
 
 using namespace LAMMPS_NS;
 
@@ -73,8 +75,8 @@ bool FixHardSphere::motion_fixes_known(std::string &why) const
     why = "gpu/keep no";
     return false;
   }
-  if (comm->nprocs > 1) {
-    why = "several ranks";
+  if (comm->nprocs > 1 && !gather_step) {
+    why = "several ranks without the gathered device step";
     return false;
   }
   if (igroup != 0) {
@@ -177,11 +179,70 @@ void FixHardSphere::motion_seen(const HSGPU::Collide::ResidentReport &report)
              update->ntimestep, bad);
 }
 
-/* The run's line on gpu/keep, for post_run() (one rank's device steps only). */
+/* Several ranks, at post_force() of the step before a check (fix_hardsphere_ahead.cpp): this
+   rank's x, v and f as they are now, for motion_check_gathered(). */
+void FixHardSphere::motion_snapshot()
+{
+  const Source src = atom_source();
+  const size_t n3 = 3 * (size_t) src.n;
+  mcheck.pending = true;
+  mcheck.step = update->ntimestep + 1;
+  mcheck.n = src.n;
+  mcheck.x = src.x;
+  mcheck.v = src.v;
+  mcheck.x0.assign(src.x, src.x + n3);
+  mcheck.v0.assign(src.v, src.v + n3);
+  if (forces_none && forces_checked)
+    mcheck.f0.clear();
+  else
+    mcheck.f0.assign(src.f, src.f + n3);
+}
+
+/* Several ranks, post_integrate() after motion_snapshot(): the atoms whose x and v, moved from
+   the snapshot by the integrator's arithmetic both ways of rounding, differ from LAMMPS's now,
+   summed over the ranks and judged as a device check is (motion_seen()).  Not judged where
+   some rank's atoms are not those of the snapshot any more. */
+void FixHardSphere::motion_check_gathered()
+{
+  mcheck.pending = false;
+  const Source src = atom_source();
+  long long miss[5] = {0, 0, 0, 0, 0};
+  const bool valid = update->ntimestep == mcheck.step && src.n == mcheck.n &&
+      src.x == mcheck.x && src.v == mcheck.v;
+  if (valid && src.n > 0)
+    HSGPU::Collide::count_motion_misses(mcheck.x0.data(), mcheck.v0.data(),
+                                        mcheck.f0.empty() ? nullptr : mcheck.f0.data(),
+                                        atom->rmass, src.x, src.v, src.n, gathered_motion(),
+                                        miss);
+  miss[4] = valid ? 0 : 1;
+  long long sum[5] = {0, 0, 0, 0, 0};
+  MPI_Allreduce(miss, sum, 5, MPI_LONG_LONG, MPI_SUM, world);
+  count_collective(sizeof(sum));
+  if (sum[4] > 0) return;
+  HSGPU::Collide::ResidentReport report;
+  report.motion = HSGPU::Collide::MotionUse::check;
+  for (int k = 0; k < 4; ++k) report.motion_miss[k] = sum[k];
+  motion_seen(report);
+}
+
+/* The run's line on gpu/keep, for post_run() (group all on one rank, or gathered on rank 0). */
 std::string FixHardSphere::motion_summary() const
 {
   if (!motion_known)
     return fmt::format("x and v copied to the device every step ({})", motion_why);
+  if (comm->nprocs > 1) {
+    const char *way = motion_way == MOTION_PLAIN ? "rounded as fix nve rounds them"
+        : motion_way == MOTION_FUSED             ? "fused multiply-adds as fix nve's"
+        : motion_way == MOTION_OFF               ? "not matching fix nve's"
+                                                 : "rounding not found";
+    if (!ahead_at_post_force)
+      return "the gathered step is not run ahead: a fix's post_force() comes after this one's";
+    return fmt::format("{} gathered steps run ahead on rank 0's device during LAMMPS's "
+                       "integration ({} of them dropped), from every rank's x, v and f at the "
+                       "step before's post_force, moved there as fix nve moves them ({}; checked "
+                       "against LAMMPS's on {} steps)",
+                       run_sum.ahead, run_sum.dropped, way, run_sum.checked);
+  }
   const char *way = motion_way == MOTION_PLAIN ? "rounded as fix nve rounds them, "
       : motion_way == MOTION_FUSED             ? "fused multiply-adds as fix nve's, "
       : motion_way == MOTION_OFF               ? "not matching fix nve's, "

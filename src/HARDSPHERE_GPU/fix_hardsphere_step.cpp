@@ -1594,7 +1594,7 @@ void FixHardSphere::post_run()
                                : std::string(),
                    back(ResidentOutcome::overlap), back(ResidentOutcome::excursion),
                    back(ResidentOutcome::capped), back(ResidentOutcome::small_box));
-    if (comm->nprocs == 1 && igroup == 0)
+    if ((comm->nprocs == 1 || gather_step) && igroup == 0)
       utils::logmesg(lmp, "Fix hardsphere: {}\n", motion_summary());
   }
 }

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <mpi.h>
 #include <regex>
 #include <string>
@@ -356,6 +357,97 @@ TEST(FixHardSphereMPI, GatheredStepWithoutForcesAgreesWithSingleRank)
                   "%.0f of 200 steps on the device\n",
                   np, cuda ? "CUDA" : "host reference", mpi ? " (through MPI)" : "",
                   single.f[1], world.on_device);
+    }
+    MPI_Barrier(MPI_COMM_WORLD);
+  }
+}
+
+// gpu/keep on several ranks: the gathered step run ahead.  Every rank sends its x, v and f at
+// the fix's post_force(), rank 0's device (or the host's reference step) moves x and v as fix
+// nve/sphere will and runs the next step while the ranks integrate; it gives the bits of
+// `gpu/keep no` (every step sent at post_integrate) and of one rank in order serial.  The
+// integrator's rounding is checked on every rank's host on the run's first steps and after
+// every 100 steps run ahead.  Cases: fix gravity; no forces; atoms sorted every 5 steps (the
+// steps after a sort send tlast, radius, ... as well) and per-atom virial every 7th step (the
+// step run ahead for it is dropped and done on the host); fix gravity defined after the fix
+// (its post_force() comes later: nothing runs ahead).  Through CUDA IPC on a device, else
+// through MPI with the host's reference step.
+TEST(FixHardSphereMPI, GatheredStepRunAheadAgreesWithSingleRank)
+{
+  const bool cuda = HSGPU::GPU::device_count() > 0;
+  int me = 0, np = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  if (np < 2) GTEST_SKIP() << "the gathered step takes two ranks or more";
+  const std::string log = "test_fix_hardsphere_mpi_ahead.log";
+  struct Case {
+    const char *name;
+    std::vector<std::string> extra;
+    bool gravity;
+    bool dropped;    // steps run ahead dropped (per-atom virial)
+    bool ahead;      // steps run ahead at all
+  };
+  const Case cases[] = {
+      {"fix gravity", {}, true, false, true},
+      {"no forces", {}, false, false, true},
+      {"sorts and per-atom virial",
+       {"atom_modify sort 5 1.0", "compute sa all stress/atom NULL fix",
+        "compute sred all reduce sum c_sa[1] c_sa[3]", "fix sav all ave/time 7 1 7 c_sred[1]"},
+       true, true, true},
+      {"fix gravity after the fix", {"fix g2 all gravity 0.5 vector 0 0 -1"}, true, false, false}};
+  for (const Case &c : cases) {
+    std::vector<std::string> extra = c.extra;
+    extra.push_back("log " + log);
+    if (!cuda) setenv("HSGPU_RESIDENT_HOST", "1", 1);
+    const Snapshot ahead =
+        run_on(MPI_COMM_WORLD, "parallel gpu yes", 250, false, false, extra, {}, c.gravity);
+    const Snapshot copied = run_on(MPI_COMM_WORLD, "parallel gpu yes gpu/keep no", 250, false,
+                                   false, c.extra, {}, c.gravity);
+    if (!cuda) unsetenv("HSGPU_RESIDENT_HOST");
+    if (me == 0) {
+      const Snapshot single =
+          run_on(MPI_COMM_SELF, "serial", 250, false, false, c.extra, {}, c.gravity);
+      EXPECT_EQ(max_abs_diff(ahead.x, single.x), 0.0) << c.name;
+      EXPECT_EQ(max_abs_diff(ahead.v, single.v), 0.0) << c.name;
+      EXPECT_EQ(max_abs_diff(copied.x, single.x), 0.0) << c.name;
+      EXPECT_EQ(max_abs_diff(copied.v, single.v), 0.0) << c.name;
+      EXPECT_EQ(ahead.f[1], single.f[1]) << c.name << ": collisions in total";
+      EXPECT_GT(single.f[1], 1000.0) << c.name;
+      EXPECT_GT(ahead.on_device, 150.0) << c.name;
+      const std::string text = hsgpu_test::file_text(log);
+      int n_ahead = 0, dropped = 0, checked = 0;
+      if (c.ahead) {
+        const size_t at = text.find("gathered steps run ahead on rank 0's device");
+        ASSERT_NE(at, std::string::npos) << c.name << "\n" << text;
+        const size_t from = text.rfind("Fix hardsphere: ", at);
+        const std::string line = text.substr(from, text.find('\n', at) - from);
+        ASSERT_EQ(std::sscanf(line.c_str(),
+                              "Fix hardsphere: %d gathered steps run ahead on rank 0's device "
+                              "during LAMMPS's integration (%d of them dropped)",
+                              &n_ahead, &dropped),
+                  2)
+            << line;
+        const size_t on = line.find("checked against LAMMPS's on ");
+        ASSERT_NE(on, std::string::npos) << line;
+        checked = std::atoi(line.c_str() + on + std::strlen("checked against LAMMPS's on "));
+        EXPECT_NE(line.find("rounded as fix nve rounds them"), std::string::npos) << line;
+        // The first check, then one after each 100 steps run ahead.
+        EXPECT_GE(checked, 2) << line;
+        EXPECT_GT(n_ahead, 150) << line;
+        if (c.dropped)
+          EXPECT_GT(dropped, 10) << line;
+        else
+          EXPECT_EQ(dropped, 0) << line;
+      } else {
+        EXPECT_NE(text.find("the gathered step is not run ahead: a fix's post_force() comes "
+                            "after this one's"),
+                  std::string::npos)
+            << c.name << "\n" << text;
+      }
+      std::printf("[ MPI      ] %d ranks, gathered %s step run ahead, %s: %.0f collisions, %.0f "
+                  "of 250 steps on the device, %d run ahead (%d dropped), %d checks\n",
+                  np, cuda ? "CUDA" : "host reference", c.name, single.f[1], ahead.on_device,
+                  n_ahead, dropped, checked);
     }
     MPI_Barrier(MPI_COMM_WORLD);
   }

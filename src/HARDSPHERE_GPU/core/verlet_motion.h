@@ -29,6 +29,7 @@
 #include "hd.h"
 
 #include <cmath>
+#include <cstring>
 
 namespace HSGPU {
 namespace Collide {
@@ -84,6 +85,29 @@ namespace Collide {
   {
     if (s.wrap) pbc_wrap(x, s);
     verlet_between_steps(x, v, f, m, s.dtf, s.dtv, fused, true);
+  }
+
+  /// A check of the integrator's rounding (host only): atoms [0, n) whose x0, v0 (3 each, as
+  /// LAMMPS held them at the last step's forces f, or zero forces where f is null; masses m),
+  /// moved by move_between_steps() both ways of rounding, differ in any bit from x, v (3
+  /// each, LAMMPS's now): miss[0 .. 3] count them for x (plain), v (plain), x (fused), v (fused).
+  inline void count_motion_misses(const double *x0, const double *v0, const double *f,
+                                  const double *m, const double *x, const double *v, long n,
+                                  const StepMotion &s, long long miss[4])
+  {
+    static const double none[3] = {0.0, 0.0, 0.0};
+    for (int k = 0; k < 4; ++k) miss[k] = 0;
+    for (long i = 0; i < n; ++i)
+      for (int way = 0; way < 2; ++way) {
+        double xi[3], vi[3];
+        for (int d = 0; d < 3; ++d) {
+          xi[d] = x0[3 * i + d];
+          vi[d] = v0[3 * i + d];
+        }
+        move_between_steps(xi, vi, f ? f + 3 * i : none, m[i], s, way == 1);
+        miss[2 * way] += std::memcmp(xi, x + 3 * i, sizeof xi) != 0;
+        miss[2 * way + 1] += std::memcmp(vi, v + 3 * i, sizeof vi) != 0;
+      }
   }
 
 }    // namespace Collide

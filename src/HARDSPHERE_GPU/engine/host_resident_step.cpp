@@ -53,11 +53,17 @@ namespace Collide {
         report.motion = motion_begin(a, own);
         // A step run ahead never reads the caller's x and v (as the CUDA step).
         if (a.defer_writes && report.motion != MotionUse::predict) return;
-        if (report.motion == MotionUse::check) compare_motion(a, force, report);
-        if (report.motion == MotionUse::predict)
+        if (report.motion == MotionUse::check) compare_motion(a, report);
+        // advance: the caller's x and v, as they were at the last step's forces, moved here.
+        if (report.motion == MotionUse::advance) {
+          kx.assign(a.x, a.x + 3 * (size_t) n);
+          kv.assign(a.v, a.v + 3 * (size_t) n);
+        }
+        const bool moved =
+            report.motion == MotionUse::predict || report.motion == MotionUse::advance;
+        if (moved)
           for (int i = 0; i < n; ++i)
             move_between_steps(&kx[3 * i], &kv[3 * i], force(i), a.rmass[i], m.move, m.fused);
-        const bool moved = report.motion == MotionUse::predict;
         const double *xin = moved ? kx.data() : a.x, *vin = moved ? kv.data() : a.v;
         // The step budget's maxima (the fix's step_budget()).
         for (int i = 0; i < n; ++i) {
@@ -203,23 +209,10 @@ namespace Collide {
 
       /* A check (MotionUse::check): the atoms whose kept copies, moved both ways of
          rounding, differ in any bit from the caller's x or v. */
-      template <class Force>
-      void compare_motion(const ResidentAtoms &a, Force force, ResidentReport &report) const
+      void compare_motion(const ResidentAtoms &a, ResidentReport &report) const
       {
-        const KeptMotion &m = a.motion;
-        long long miss[4] = {0, 0, 0, 0};
-        for (int i = 0; i < a.n; ++i)
-          for (int way = 0; way < 2; ++way) {
-            double x[3], v[3];
-            for (int d = 0; d < 3; ++d) {
-              x[d] = kx[3 * i + d];
-              v[d] = kv[3 * i + d];
-            }
-            move_between_steps(x, v, force(i), a.rmass[i], m.move, way == 1);
-            miss[2 * way] += std::memcmp(x, a.x + 3 * i, sizeof x) != 0;
-            miss[2 * way + 1] += std::memcmp(v, a.v + 3 * i, sizeof v) != 0;
-          }
-        for (int k = 0; k < 4; ++k) report.motion_miss[k] = miss[k];
+        count_motion_misses(kx.data(), kv.data(), a.zero_forces ? nullptr : a.f, a.rmass, a.x,
+                            a.v, a.n, a.motion.move, report.motion_miss);
       }
 
       /* The step of the bodies b (a scratch copy, resolved in place) with the step bounds in

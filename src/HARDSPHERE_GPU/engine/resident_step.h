@@ -66,10 +66,16 @@ namespace Collide {
   ///   check:   copied up, and compared with the kept copies so moved, both ways of rounding
   ///            (ResidentReport::motion_miss); the step itself uses what came up;
   ///   predict: the kept copies so moved are the step's x and v; nothing copied up.
+  ///   advance: x and v as given (the caller's arrays, or the step's shared buffers) are
+  ///            LAMMPS's at the forces of the step before (its post_force(), before fix nve's
+  ///            final_integrate()); the step moves them as predict moves the kept copies
+  ///            (StepMotion without wrap: LAMMPS wraps atoms only after the step) and uses
+  ///            them.  Needs no kept copies: for FixHardSphere's gathered step of several
+  ///            ranks, whose x and v come from every rank (and with results or shared inputs).
   /// check and predict fall back to copy where the step kept no copies of these arrays (its
   /// last run_atoms() not done, or not with keep, other arrays or another atom count, or
   /// forget_host_arrays() since).
-  enum class MotionUse { copy, check, predict };
+  enum class MotionUse { copy, check, predict, advance };
   struct KeptMotion {
     MotionUse use = MotionUse::copy;
     bool keep = false;     // keep copies of x and v as this step leaves them, for the next
@@ -157,8 +163,9 @@ namespace Collide {
     // The caller vouches that f is zero for every atom (no style sets forces: FixHardSphere::
     // forces_none): f is not read or copied up, the device uses zeros.
     bool zero_forces = false;
-    // How x and v get to the step (KeptMotion); only with x, v, f of the caller's (not
-    // inputs_shared, not results) and no omega.
+    // How x and v get to the step (KeptMotion); check and predict only with x, v, f of the
+    // caller's (not inputs_shared, not results) and no omega; advance with any of those but
+    // omega.
     KeptMotion motion;
     // The caller's x, v, omega and tlast are not written until deliver_atoms(), which writes
     // the results there, and x and v are not read: the step can then run while LAMMPS still
@@ -273,6 +280,10 @@ namespace Collide {
     /// a's arrays as it leaves them.  motion_forget(): none kept (forget_host_arrays()).
     MotionUse motion_begin(const ResidentAtoms &a, bool own)
     {
+      if (a.motion.use == MotionUse::advance) {
+        motion_kept = false;
+        return MotionUse::advance;
+      }
       const bool have = motion_kept && own && motion_x == a.x && motion_v == a.v && motion_n == a.n;
       motion_kept = false;
       return have ? a.motion.use : MotionUse::copy;

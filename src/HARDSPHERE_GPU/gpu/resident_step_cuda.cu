@@ -1392,6 +1392,8 @@ namespace Collide {
       report.motion = motion_begin(a, own);
       const bool moved = report.motion == MotionUse::predict;
       const bool check = report.motion == MotionUse::check;
+      // advance: x and v come up (or lie in the shared buffers) and are moved here.
+      const bool advance = report.motion == MotionUse::advance;
       // A step run ahead never reads the caller's x and v (LAMMPS may be integrating them):
       // without copies to move it does nothing, and the caller sees report.motion.
       if (a.defer_writes && !moved) return;
@@ -1434,7 +1436,7 @@ namespace Collide {
       host_budget.reserve(NBUDGET * sizeof(unsigned long long), "cudaMallocHost(budget)");
       cuda_check(cudaMemsetAsync(d_budget.ptr, 0, NBUDGET * sizeof(unsigned long long), stream),
                  "cudaMemset");
-      if (moved) {
+      if (moved || advance) {
         verlet_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_ax.as<double>(), d_av.as<double>(),
                                                         d_af.as<double>(), d_amass.as<double>(),
                                                         n, m.move, m.fused);
