@@ -174,6 +174,8 @@ class FixHardSphere : public Fix {
     bigint declined[5] = {0, 0, 0, 0, 0};                  // steps handed back, by ResidentOutcome
     bigint moved = 0, checked = 0;    // device steps with x, v moved there, or checked (gpu/keep)
     bigint ahead = 0, dropped = 0;    // steps run ahead during LAMMPS's integration, dropped
+    double t_ahead_wait = 0.0;    // seconds the steps run ahead were waited for (with the
+                                  // ranks' agreement to take them, on several ranks)
   } run_sum;
 
   // --- per-step work ----------------------------------------------------------------------
@@ -370,6 +372,9 @@ class FixHardSphere : public Fix {
     std::vector<char> handles;    // rank 0's device buffers for them
     std::string why;              // why a rank could not
     double t_put = 0.0, t_wait = 0.0;    // this run: seconds copying them, and waiting for all
+    // This run, seconds: rank 0's buffer handles to the ranks; its results' handles and counts
+    // to them; reading them; the reduction after; writing them into the atoms' arrays.
+    double t_part[5] = {0.0, 0.0, 0.0, 0.0, 0.0};
     // With a group other than all: this rank's group atoms (indices here) and their arrays.
     std::vector<int> lidx;
     AtomArrays packed;

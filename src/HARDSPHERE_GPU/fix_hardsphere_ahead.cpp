@@ -16,6 +16,7 @@
    where nothing it assumed changed in between (the step, the timestep, the reneighborings,
    the atom arrays, a step on the host or with per-atom virial); else it drops it, with the
    device's kept copies (which ran ahead with it), and does the step as before.
+   On several ranks the gathered step runs ahead in its own way (below).
    HSGPU_RESIDENT_AHEAD=0 (tuning aid) never runs a step ahead. */
 #include "fix_hardsphere.h"
 
@@ -117,11 +118,13 @@ void FixHardSphere::run_ahead()
 int FixHardSphere::take_ahead(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all)
 {
   next.pending = false;
+  const double t_start = MPI_Wtime();
   try {
     ahead->wait();
   } catch (std::exception &e) {
     error->one(FLERR, "Fix hardsphere: CUDA device {}: {}", backend_device, e.what());
   }
+  run_sum.t_ahead_wait += MPI_Wtime() - t_start;
   const HSGPU::Collide::ResidentAtoms &a = next.atoms;
   const bool still = next.report.motion == HSGPU::Collide::MotionUse::predict &&
       update->ntimestep == next.step && neighbor->ncalls == next.builds &&
@@ -265,6 +268,7 @@ void FixHardSphere::run_ahead_gathered()
 int FixHardSphere::take_ahead_gathered(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all)
 {
   next.pending = false;
+  const double t_start = MPI_Wtime();
   const Source src = atom_source();
   int ok = !next.spoiled && update->ntimestep == next.step && neighbor->ncalls == next.builds &&
       update->dt == next.dt && resident_usable() && src.n == next.nlocal && src.x == next.x &&
@@ -279,6 +283,7 @@ int FixHardSphere::take_ahead_gathered(HSGPU::Collide::Tally &mine, HSGPU::Colli
       error->one(FLERR, "Fix hardsphere: CUDA device {}: {}", backend_device, e.what());
     }
   }
+  run_sum.t_ahead_wait += MPI_Wtime() - t_start;
   if (!all_ok) {
     forget_ahead();
     return -1;

@@ -15,7 +15,9 @@
    Event times depend only on the two atoms' states, so the result is one rank's bit for bit,
    whatever order the atoms arrive in.  Where the device hands the step back, every rank
    resolves it the host way from the same start (its arrays are untouched until the results
-   come).
+   come).  With gpu/keep the first half (gathered_send()) may run at post_force() of the step
+   before and rank 0's device step on a thread of its own until this step takes it
+   (fix_hardsphere_ahead.cpp).
 ------------------------------------------------------------------------------------- */
 
 #include "fix_hardsphere.h"
@@ -49,6 +51,7 @@ bool FixHardSphere::share_inputs(long n, int nlocal, const Source &src, bool sta
 {
   if (!gath.ipc) return false;
   const int me = comm->me;
+  const double t_h = MPI_Wtime();
   // Rank 0's handles to everyone (a fixed size: three CUDA IPC handles, or none).
   int ok = 1;
   std::vector<char> &h = gath.handles;
@@ -71,6 +74,7 @@ bool FixHardSphere::share_inputs(long n, int nlocal, const Source &src, bool sta
   // Each rank's own atoms, at its offset (the ranks' atoms in rank order).
   const long first = gath.displ[me];
   const double t0 = MPI_Wtime();
+  gath.t_part[0] += t0 - t_h;
   if (ok) {
     try {
       const int idb = (int) sizeof(tagint);
@@ -429,6 +433,7 @@ bool FixHardSphere::results_shared(int nlocal, bool whole, double &moved)
   const int np = comm->nprocs, me = comm->me;
   std::vector<char> &h = gath.rhandles;
   int hbytes = 0;
+  const double t_h = MPI_Wtime();
   if (me == 0) {
     // Rank p's results: those with indices in [displ[p], displ[p + 1]) (increasing indices).
     gath.span.assign(2 * np, 0);
@@ -461,6 +466,8 @@ bool FixHardSphere::results_shared(int nlocal, bool whole, double &moved)
   int mine[2] = {0, 0};
   MPI_Scatter(gath.span.data(), 2, MPI_INT, mine, 2, MPI_INT, 0, world);
   moved += sizeof(int) + hbytes + sizeof(mine);
+  const double t_r = MPI_Wtime();
+  gath.t_part[1] += t_r - t_h;
   int ok = 1;
   if (me != 0) {
     try {
@@ -483,9 +490,13 @@ bool FixHardSphere::results_shared(int nlocal, bool whole, double &moved)
     }
   }
   // Also: every rank has read before rank 0's device moves on.
+  const double t_a = MPI_Wtime();
+  gath.t_part[2] += t_a - t_r;
   int all = 0;
   MPI_Allreduce(&ok, &all, 1, MPI_INT, MPI_MIN, world);
   count_collective(sizeof(int));
+  const double t_w = MPI_Wtime();
+  gath.t_part[3] += t_w - t_a;
   if (!all) {
     gath.ipc_results = false;
     int who = ok ? np : me, first_bad = 0;
@@ -514,6 +525,7 @@ bool FixHardSphere::results_shared(int nlocal, bool whole, double &moved)
     if (w)
       for (int d = 0; d < 3; ++d) atom->omega[i][d] = w[3 * k + d];
   }
+  gath.t_part[4] += MPI_Wtime() - t_w;
   return true;
 }
 

@@ -7,7 +7,7 @@
    gets LAMMPS's values to the bit (ResidentAtoms::motion, engine/resident_step.h).
 
    When that holds, known at init() from the fixes defined (motion_fixes_known()):
-     - one rank, group all, smooth spheres, one fix nve or nve/sphere of group all, and every
+     - one rank (or the gathered step of several, below), group all, smooth spheres, one fix nve or nve/sphere of group all, and every
        other fix one of a list that never changes x or v of an atom present (output, forces,
        insertion of new atoms);
      - the device's copies are of these atoms in this order: the last step was done there and
@@ -21,7 +21,12 @@
    copies, which copies x and v up and compares both ways; if neither gives LAMMPS's bits the
    run copies them every step, with a WARNING.  After every MOTION_AUDIT steps moved on the
    device the next such step checks again; a check that fails then stops the run with an ERROR:
-   something this list calls harmless changed x or v. */
+   something this list calls harmless changed x or v.
+
+   On several ranks with the gathered device step (gpu/gather yes) the same fixes let the
+   gathered step run ahead from x, v and f sent at post_force() (fix_hardsphere_ahead.cpp,
+   MotionUse::advance); the rounding is then found and checked on every rank's host
+   (motion_snapshot(), motion_check_gathered()). */
 #include "fix_hardsphere.h"
 
 #include "atom.h"
@@ -240,8 +245,10 @@ std::string FixHardSphere::motion_summary() const
     return fmt::format("{} gathered steps run ahead on rank 0's device during LAMMPS's "
                        "integration ({} of them dropped), from every rank's x, v and f at the "
                        "step before's post_force, moved there as fix nve moves them ({}; checked "
-                       "against LAMMPS's on {} steps)",
-                       run_sum.ahead, run_sum.dropped, way, run_sum.checked);
+                       "against LAMMPS's on {} steps); {:.4g} ms per step run ahead waiting for "
+                       "it and for the ranks to agree to take it",
+                       run_sum.ahead, run_sum.dropped, way, run_sum.checked,
+                       run_sum.ahead ? 1e3 * run_sum.t_ahead_wait / run_sum.ahead : 0.0);
   }
   const char *way = motion_way == MOTION_PLAIN ? "rounded as fix nve rounds them, "
       : motion_way == MOTION_FUSED             ? "fused multiply-adds as fix nve's, "
@@ -249,7 +256,9 @@ std::string FixHardSphere::motion_summary() const
                                                : "";
   return fmt::format("x and v moved on the device on {} steps ({}checked against LAMMPS's on {}); "
                      "{} steps run ahead on the device during LAMMPS's integration ({} of them "
-                     "dropped), each from the step before's {}",
+                     "dropped), each from the step before's {}; {:.4g} ms per step run ahead "
+                     "waiting for it",
                      run_sum.moved, way, run_sum.checked, run_sum.ahead, run_sum.dropped,
-                     ahead_at_post_force ? "post_force" : "end_of_step");
+                     ahead_at_post_force ? "post_force" : "end_of_step",
+                     run_sum.ahead ? 1e3 * run_sum.t_ahead_wait / run_sum.ahead : 0.0);
 }

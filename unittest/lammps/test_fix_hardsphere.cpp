@@ -1302,7 +1302,7 @@ TEST(FixHardSphere, KeptMotionEqualsCopiedArrays)
                             "Fix hardsphere: x and v moved on the device on %d steps (rounded as "
                             "fix nve rounds them, checked against LAMMPS's on %d); %d steps run "
                             "ahead on the device during LAMMPS's integration (%d of them "
-                            "dropped), each from the step before's %31s",
+                            "dropped), each from the step before's %31[a-z_]",
                             &moved, &checked, &ahead, &dropped, from),
                 5)
           << line;

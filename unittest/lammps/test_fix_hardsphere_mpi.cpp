@@ -395,14 +395,19 @@ TEST(FixHardSphereMPI, GatheredStepRunAheadAgreesWithSingleRank)
         "compute sred all reduce sum c_sa[1] c_sa[3]", "fix sav all ave/time 7 1 7 c_sred[1]"},
        true, true, true},
       {"fix gravity after the fix", {"fix g2 all gravity 0.5 vector 0 0 -1"}, true, false, false}};
-  for (const Case &c : cases) {
+  // On a device also through MPI to rank 0's host (HSGPU_GATHER_MPI) for the first case.
+  for (int k = 0; k < (cuda ? 5 : 4); ++k) {
+    const Case &c = cases[k % 4];
+    const bool mpi = k == 4;
     std::vector<std::string> extra = c.extra;
     extra.push_back("log " + log);
     if (!cuda) setenv("HSGPU_RESIDENT_HOST", "1", 1);
+    if (mpi) setenv("HSGPU_GATHER_MPI", "1", 1);
     const Snapshot ahead =
         run_on(MPI_COMM_WORLD, "parallel gpu yes", 250, false, false, extra, {}, c.gravity);
     const Snapshot copied = run_on(MPI_COMM_WORLD, "parallel gpu yes gpu/keep no", 250, false,
                                    false, c.extra, {}, c.gravity);
+    if (mpi) unsetenv("HSGPU_GATHER_MPI");
     if (!cuda) unsetenv("HSGPU_RESIDENT_HOST");
     if (me == 0) {
       const Snapshot single =
@@ -444,10 +449,11 @@ TEST(FixHardSphereMPI, GatheredStepRunAheadAgreesWithSingleRank)
                   std::string::npos)
             << c.name << "\n" << text;
       }
-      std::printf("[ MPI      ] %d ranks, gathered %s step run ahead, %s: %.0f collisions, %.0f "
-                  "of 250 steps on the device, %d run ahead (%d dropped), %d checks\n",
-                  np, cuda ? "CUDA" : "host reference", c.name, single.f[1], ahead.on_device,
-                  n_ahead, dropped, checked);
+      std::printf("[ MPI      ] %d ranks, gathered %s step run ahead, %s%s: %.0f collisions, "
+                  "%.0f of 250 steps on the device, %d run ahead (%d dropped), %d checks\n",
+                  np, cuda ? "CUDA" : "host reference", c.name,
+                  mpi || !cuda ? " (through MPI)" : "", single.f[1], ahead.on_device, n_ahead,
+                  dropped, checked);
     }
     MPI_Barrier(MPI_COMM_WORLD);
   }
