@@ -363,6 +363,7 @@ class FixHardSphere : public Fix {
     std::vector<double> rspin;                              // and their spins (rough spheres)
     std::vector<double> send, recv;                         // the results, by rank
     bool ipc_results = true;      // each rank reads its results from rank 0's device
+    bool ipc_whole = true;        // each rank reads its atoms' end state from there
     std::vector<char> rhandles;   // rank 0's device copies of the results
     std::vector<int> span;        // per rank: its first result and how many (rank 0)
     std::vector<HSGPU::Collide::ResidentResult> rres;    // this rank's results, read there
@@ -428,6 +429,8 @@ class FixHardSphere : public Fix {
   bool share_inputs(long n, int nlocal, const Source &src, bool statics, bool no_forces);
   void results_mpi(int nlocal, bool whole, double &moved);
   bool results_shared(int nlocal, bool whole, double &moved);
+  bool state_back(const GatheredSend &s) const;
+  bool results_whole(int nlocal);
   HSGPU::Collide::ResidentBox resident_box() const;
   HSGPU::Collide::ResidentAtoms resident_atoms(const Source &s, bool same) const;
   void count_resident(const HSGPU::Collide::ResidentReport &report);

@@ -33,6 +33,8 @@
 
 #include <algorithm>
 #include <climits>
+#include <cstdlib>
+#include <cstring>
 #include <exception>
 #include <stdexcept>
 #include <mpi.h>
@@ -253,6 +255,9 @@ HSGPU::Collide::ResidentAtoms FixHardSphere::gathered_atoms(const GatheredSend &
   a.spin_shared = s.shared && friction_on;
   a.results = &gath.results;    // the atoms with events listed, to go back to their ranks
   a.result_spin = &gath.rspin;
+  // Group all, one node, smooth spheres: every rank reads its atoms' end state whole from
+  // rank 0's device (results_whole()), which keeps it there.
+  a.motion.keep = state_back(s);
   return a;
 }
 
@@ -313,7 +318,8 @@ int FixHardSphere::gathered_finish(const GatheredSend &s, GatheredResult r, Tall
     // velocity, time of last collision (and spin); every other atom's time of last collision
     // is shifted to the step end here, as the device did (max(t - dt, never)).
     const double t0 = MPI_Wtime();
-    if (!(s.shared && gath.ipc_results && results_shared(s.nlocal, s.whole, moved)))
+    if (!(state_back(s) && results_whole(s.nlocal)) &&
+        !(s.shared && gath.ipc_results && results_shared(s.nlocal, s.whole, moved)))
       results_mpi(s.nlocal, s.whole, moved);
     report.t_resolve += MPI_Wtime() - t0;
     run_sum.t_gather += MPI_Wtime() - t0;
@@ -527,6 +533,60 @@ bool FixHardSphere::results_shared(int nlocal, bool whole, double &moved)
   }
   gath.t_part[4] += MPI_Wtime() - t_w;
   return true;
+}
+
+/* Whether the atoms' end state goes back whole (results_whole()): group all, shared buffers
+   (one node, CUDA IPC), smooth spheres, and no rank failed at it this run. */
+bool FixHardSphere::state_back(const GatheredSend &s) const
+{
+  static const bool off = [] {
+    const char *e = std::getenv("HSGPU_GATHER_WHOLE");
+    return e && std::strcmp(e, "0") == 0;
+  }();
+  return !off && s.shared && s.whole && !friction_on && gath.ipc_whole;
+}
+
+/* The results back as the atoms' whole end state: each rank copies its atoms' x, v and tlast
+   from rank 0's device straight into LAMMPS's arrays and the fix's (the atoms without events
+   get their own bits back; DMA into the page-locked arrays instead of a write per changed
+   atom).  Returns false on every rank where some rank could not (the device kept no state,
+   or a copy failed: the results then come the other ways, which overwrite the changed atoms
+   and every tlast; an unchanged atom's x and v are its own either way), and so for the rest
+   of the run. */
+bool FixHardSphere::results_whole(int nlocal)
+{
+  const int me = comm->me;
+  const double t0 = MPI_Wtime();
+  int ok = 1;
+  try {
+    if (nlocal > 0) {
+      double *x = atom->x[0], *v = atom->v[0];
+      if (me == 0)
+        ok = resident->get_atoms(gath.displ[0], nlocal, x, v, tlast) ? 1 : 0;
+      else if (peer)
+        peer->get_atoms(gath.displ[me], nlocal, x, v, tlast);
+      else
+        ok = 0;
+    }
+  } catch (std::exception &e) {
+    ok = 0;
+    gath.why = e.what();
+  }
+  // Also: every rank has read before rank 0's device moves on.
+  const double t1 = MPI_Wtime();
+  gath.t_part[2] += t1 - t0;
+  int all = 0;
+  MPI_Allreduce(&ok, &all, 1, MPI_INT, MPI_MIN, world);
+  count_collective(sizeof(int));
+  gath.t_part[3] += MPI_Wtime() - t1;
+  if (all) return true;
+  gath.ipc_whole = false;
+  if (!ok && me != 0)
+    utils::logmesg(lmp,
+                   "Fix hardsphere: rank {} cannot read its atoms from rank 0's device ({}); "
+                   "the results come as a list for the rest of the run\n",
+                   me, gath.why);
+  return false;
 }
 
 /* What this rank sends to the gathered step: with group all LAMMPS's own arrays, else the

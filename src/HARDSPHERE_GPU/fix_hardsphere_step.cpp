@@ -1524,21 +1524,27 @@ void FixHardSphere::post_run()
   auto most = [&](int k) { return 1e3 * twx[NT + k] / n; };
   // The gathered step's copies of x, v, f to rank 0's device: the slowest rank's time copying,
   // and the longest wait of a rank for the others.
-  double tputs[7] = {gath.t_put, gath.t_wait}, tmax[7] = {0.0};
-  for (int k = 0; k < 5; ++k) tputs[2 + k] = gath.t_part[k];
-  if (gather_step) MPI_Reduce(tputs, tmax, 7, MPI_DOUBLE, MPI_MAX, 0, world);
+  // And the parts of the results' way back, least and most of any rank.
+  double tputs[12] = {gath.t_put, gath.t_wait}, tmax[12] = {0.0};
+  for (int k = 0; k < 5; ++k) {
+    tputs[2 + k] = gath.t_part[k];
+    tputs[7 + k] = -gath.t_part[k];
+  }
+  if (gather_step) MPI_Reduce(tputs, tmax, 12, MPI_DOUBLE, MPI_MAX, 0, world);
   gath.t_put = gath.t_wait = 0.0;
   for (double &t : gath.t_part) t = 0.0;
   if (comm->me != 0) return;
+  auto part = [&](int k) {
+    return fmt::format("{:.3g} to {:.3g}", -1e3 * tmax[7 + k] / n, 1e3 * tmax[2 + k] / n);
+  };
   if (gather_step && tmax[0] > 0.0)
     utils::logmesg(lmp,
                    "Fix hardsphere: x, v and f copied by each rank to rank 0's device: {:.4g} s "
                    "copying and {:.4g} s waiting for the other ranks (the most of any rank); "
-                   "ms per step (the most of any rank): rank 0's buffers' handles {:.3g}, its "
-                   "results' handles and counts {:.3g}, reading them {:.3g}, the reduction after "
-                   "{:.3g}, writing them into the atoms' arrays {:.3g}\n",
-                   tmax[0], tmax[1], 1e3 * tmax[2] / n, 1e3 * tmax[3] / n, 1e3 * tmax[4] / n,
-                   1e3 * tmax[5] / n, 1e3 * tmax[6] / n);
+                   "ms per step (least to most of any rank): rank 0's buffers' handles {}, its "
+                   "results' handles and counts {}, reading them {}, the reduction after {}, "
+                   "writing them into the atoms' arrays {}\n",
+                   tmax[0], tmax[1], part(0), part(1), part(2), part(3), part(4));
   utils::logmesg(lmp,
                  "Fix hardsphere ({} order, {} backend): {} steps, {:.6g} collisions and {:.6g} "
                  "events per "

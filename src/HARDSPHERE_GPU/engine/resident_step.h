@@ -213,6 +213,21 @@ namespace Collide {
       handles.clear();
       return false;
     }
+    /// After a run_atoms() with ResidentAtoms::results and KeptMotion::keep that returned
+    /// `done`: copies atoms [first, first + count) of the step's end state (x and v: every
+    /// atom's, the results written in; tlast) into x, v (3 each) and tlast here, and waits;
+    /// other processes of the node read the same from the buffers of share_inputs()
+    /// (GPU::PeerInputs::get_atoms()).  Valid until the next put_inputs(), put_statics() or
+    /// run_atoms().  False where the step has no such state (the host's reference step).
+    virtual bool get_atoms(long first, long count, double *x, double *v, double *tlast)
+    {
+      (void) first;
+      (void) count;
+      (void) x;
+      (void) v;
+      (void) tlast;
+      return false;
+    }
     /// Copies count atoms' angular velocities (3 each) from this process into atoms [first,
     /// first + count) of the omega buffer of share_inputs() with spin, and waits.
     virtual void put_spin(long first, long count, const double *omega)

@@ -210,6 +210,23 @@ namespace GPU {
     cuda_check(cudaStreamSynchronize(stream), what);
   }
 
+  /// The other way: atoms [first, first + count) of the device arrays src[0 .. 2] (x, v: 3
+  /// doubles each; tlast: one) into the host arrays x, v, tlast on `stream`, and waits.
+  inline void copy_state_from_device(const double *const src[3], long first, long count,
+                                     double *x, double *v, double *tlast, cudaStream_t stream,
+                                     const char *what)
+  {
+    if (count <= 0) return;
+    double *dst[3] = {x, v, tlast};
+    for (int k = 0; k < 3; ++k) {
+      const int per = k < 2 ? 3 : 1;
+      cuda_check(cudaMemcpyAsync(dst[k], src[k] + per * first, per * count * sizeof(double),
+                                 cudaMemcpyDefault, stream),
+                 what);
+    }
+    cuda_check(cudaStreamSynchronize(stream), what);
+  }
+
   /// Copies count atoms' times of last collision, radii, masses (doubles), types (ints) and
   /// IDs (id_bytes each) from the host into atoms [first, first + count) of the device arrays
   /// dst[0 .. 4] on `stream` (pageable: they move only after atoms moved in the arrays), and

@@ -140,6 +140,18 @@ namespace GPU {
                            impl->stream, "cudaMemcpy(atoms to the gathering device)");
   }
 
+  void PeerInputs::get_atoms(long first, long count, double *x, double *v, double *tlast)
+  {
+    if (count <= 0) return;
+    if (!impl->buf[0] || !impl->buf[3]) throw Error("PeerInputs: no buffers open");
+    cuda_check(cudaSetDevice(impl->device), "cudaSetDevice");
+    const double *const src[3] = {static_cast<const double *>(impl->buf[0]),
+                                  static_cast<const double *>(impl->buf[1]),
+                                  static_cast<const double *>(impl->buf[3])};
+    copy_state_from_device(src, first, count, x, v, tlast, impl->stream,
+                           "cudaMemcpy(atoms from the gathering device)");
+  }
+
   void PeerInputs::forget_host_arrays()
   {
     cudaSetDevice(impl->device);

@@ -48,6 +48,10 @@ namespace GPU {
     /// Copies `bytes` bytes from byte `offset` of open result buffer k (0: the results, 1:
     /// tlast, 2: the results' angular velocities) into host memory `out`, and waits.
     void get_result(int k, size_t offset, size_t bytes, void *out);
+    /// Copies atoms [first, first + count) of the open buffers' x, v and tlast (the gathering
+    /// device's step end state: ResidentStep::get_atoms()) into x, v (3 doubles each) and tlast
+    /// here, and waits.
+    void get_atoms(long first, long count, double *x, double *v, double *tlast);
     /// The host arrays given to put() may move or be freed.
     void forget_host_arrays();
 

@@ -111,6 +111,7 @@ namespace Collide {
     using GPU::copy_xvf_to_device;
     using GPU::HostRangeLock;
     using GPU::copy_statics_to_device;
+    using GPU::copy_state_from_device;
 
     using Clock = std::chrono::steady_clock;
 
@@ -242,6 +243,7 @@ namespace Collide {
      public:
       bool share_inputs(long count, int id_bytes, bool spin, std::vector<char> &handles) override
       {
+        state_kept = false;
         handles.clear();
         cuda_check(cudaSetDevice(device), "cudaSetDevice");
         // The sizes run_atoms() reserves (its up()): no buffer moves between the two.
@@ -289,6 +291,7 @@ namespace Collide {
       void put_inputs(long first, long count, const double *x, const double *v,
                       const double *f, long room) override
       {
+        state_kept = false;
         if (count <= 0) return;
         cuda_check(cudaSetDevice(device), "cudaSetDevice");
         double *const dst[3] = {d_ax.as<double>(), d_av.as<double>(), d_af.as<double>()};
@@ -313,10 +316,21 @@ namespace Collide {
         return true;
       }
 
+      bool get_atoms(long first, long count, double *x, double *v, double *tlast) override
+      {
+        if (!state_kept) return false;
+        cuda_check(cudaSetDevice(device), "cudaSetDevice");
+        const double *const src[3] = {d_ax.as<double>(), d_av.as<double>(),
+                                      d_atlast.as<double>()};
+        copy_state_from_device(src, first, count, x, v, tlast, stream, "cudaMemcpy(atoms back)");
+        return true;
+      }
+
       void put_statics(long first, long count, const double *tlast, const double *radius,
                        const double *rmass, const int *type, const void *id,
                        int id_bytes) override
       {
+        state_kept = false;
         if (count <= 0) return;
         cuda_check(cudaSetDevice(device), "cudaSetDevice");
         void *const dst[5] = {d_atlast.ptr, d_arad.ptr, d_amass.ptr, d_atype.ptr, d_aid.ptr};
@@ -326,6 +340,7 @@ namespace Collide {
 
       void forget_host_arrays() override
       {
+        state_kept = false;
         cudaSetDevice(device);
         for (HostRangeLock &l : locked) l.release();
         kept = false;
@@ -348,6 +363,8 @@ namespace Collide {
           d_parent, d_root, d_size, d_isroot, d_gid, d_goff, d_gstart, d_gmembers, d_best, d_sums,
           d_lexc, d_temp, d_near, d_neartag, d_order, d_stash;
       DeviceBuffer d_rspin;    // run_atoms(): the results' angular velocities (rough spheres)
+      // The last run_atoms() left its end state in d_ax, d_av and d_atlast for get_atoms().
+      bool state_kept = false;
       // Window bounds and joined flags come in two sets, window k's in set k % 2, so that the
       // next window's first try can be set up while this one's check may still repair it.
       DeviceBuffer d_wbound2, d_joined2;
@@ -1388,7 +1405,10 @@ namespace Collide {
       // integrator moved the caller's since (ResidentAtoms::motion).
       const KeptMotion &m = a.motion;
       const bool own = !a.results && !a.inputs_shared && !(p.friction && a.omega);
-      const bool keep_motion = m.keep && own;
+      // The step's end state stays in d_ax, d_av (the results written in): kept copies for
+      // the next step (own arrays), or for get_atoms() (listed results).
+      const bool keep_motion = m.keep && !(p.friction && a.omega);
+      state_kept = false;
       report.motion = motion_begin(a, own);
       const bool moved = report.motion == MotionUse::predict;
       const bool check = report.motion == MotionUse::check;
@@ -1545,7 +1565,8 @@ namespace Collide {
       // d_ax, d_av: x and v as the caller's arrays now hold them (the whole copies and the
       // direct writes carry the changed atoms into them, the kernel above where the host
       // writes them).
-      motion_done(a, keep_motion);
+      motion_done(a, keep_motion && own);
+      state_kept = keep_motion && a.results;
     }
 
   }    // namespace
