@@ -174,6 +174,7 @@ class FixHardSphere : public Fix {
     bigint declined[5] = {0, 0, 0, 0, 0};                  // steps handed back, by ResidentOutcome
     bigint moved = 0, checked = 0;    // device steps with x, v moved there, or checked (gpu/keep)
     bigint ahead = 0, dropped = 0;    // steps run ahead during LAMMPS's integration, dropped
+    bigint xv_kept = 0;    // gathered steps run ahead with x and v kept on rank 0's device
     double t_ahead_wait = 0.0;    // seconds the steps run ahead were waited for (with the
                                   // ranks' agreement to take them, on several ranks)
   } run_sum;
@@ -270,6 +271,7 @@ class FixHardSphere : public Fix {
     bool same = false;        // no rank's atoms moved in its arrays since the last such step
     bool shared = false;      // in rank 0's device buffers (CUDA IPC), else its host's
     bool no_forces = false;   // f not sent (zero)
+    bool xv_kept = false;     // x and v not sent: rank 0's device kept the last step's
     double t_gather = 0.0;    // seconds sending
     double moved = 0.0;       // bytes this rank received
   };
@@ -281,7 +283,7 @@ class FixHardSphere : public Fix {
     double t_search, t_resolve, t_upload, t_download, bytes_up;
     double largest_group, groups, windows, repairs;
   };
-  void gathered_send(GatheredSend &s, bool unchanged);
+  void gathered_send(GatheredSend &s, bool unchanged, bool keep_xv = false);
   HSGPU::Collide::ResidentAtoms gathered_atoms(const GatheredSend &s);
   GatheredResult gathered_result(const HSGPU::Collide::ResidentReport &report,
                                  const HSGPU::Collide::Tally &mine) const;
@@ -296,7 +298,7 @@ class FixHardSphere : public Fix {
     const double *x = nullptr, *v = nullptr;    // LAMMPS's arrays then
     std::vector<double> x0, v0, f0;             // f0 empty: no forces
   } mcheck;
-  HSGPU::Collide::StepMotion gathered_motion() const;
+  HSGPU::Collide::StepMotion gathered_motion(bool wrap) const;
   void motion_snapshot();
   void motion_check_gathered();
   std::unique_ptr<StepAhead> ahead;
@@ -364,6 +366,8 @@ class FixHardSphere : public Fix {
     std::vector<double> send, recv;                         // the results, by rank
     bool ipc_results = true;      // each rank reads its results from rank 0's device
     bool ipc_whole = true;        // each rank reads its atoms' end state from there
+    bool state_kept = false;      // the last step's end state is in rank 0's device buffers
+    bigint builds = -1;           // neighbor->ncalls at the end of the last step
     std::vector<char> rhandles;   // rank 0's device copies of the results
     std::vector<int> span;        // per rank: its first result and how many (rank 0)
     std::vector<HSGPU::Collide::ResidentResult> rres;    // this rank's results, read there
@@ -426,7 +430,8 @@ class FixHardSphere : public Fix {
   int build(double drift_dt, bool collect_pushes);
   int step_resident(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   int step_gathered(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
-  bool share_inputs(long n, int nlocal, const Source &src, bool statics, bool no_forces);
+  bool share_inputs(long n, int nlocal, const Source &src, bool statics, bool no_forces,
+                    bool xv = true);
   void results_mpi(int nlocal, bool whole, double &moved);
   bool results_shared(int nlocal, bool whole, double &moved);
   bool state_back(const GatheredSend &s) const;

@@ -22,6 +22,7 @@
 
 #include "atom.h"
 #include "comm.h"
+#include "domain.h"
 #include "error.h"
 #include "force.h"
 #include "modify.h"
@@ -207,13 +208,21 @@ void FixHardSphere::spoil_ahead()
    the same on every rank (the fixes, the counters, rank 0's broadcast results), so every
    rank takes the same branch at each collective. */
 
-/* The integrator's move from post_force() of one step to post_integrate() of the next. */
-HSGPU::Collide::StepMotion FixHardSphere::gathered_motion() const
+/* The integrator's move from post_force() of one step to post_integrate() of the next; with
+   wrap also Domain::pbc()'s wrap before it (x and v kept on the device from the end of the
+   step before, which LAMMPS reneighbored since). */
+HSGPU::Collide::StepMotion FixHardSphere::gathered_motion(bool wrap) const
 {
   HSGPU::Collide::StepMotion m;
   m.dtf = 0.5 * update->dt * force->ftm2v;    // as fix nve's init()
   m.dtv = update->dt;
-  m.wrap = false;    // LAMMPS wraps the atoms after post_integrate(), not before
+  m.wrap = wrap;
+  for (int d = 0; d < 3; ++d) {
+    m.lo[d] = domain->boxlo[d];
+    m.hi[d] = domain->boxhi[d];
+    m.prd[d] = domain->prd[d];
+    m.periodic[d] = domain->periodicity[d];
+  }
   return m;
 }
 
@@ -230,7 +239,8 @@ void FixHardSphere::run_ahead_gathered()
   const double t_start = MPI_Wtime();
   const bool unchanged = resident_same && !sizes_vary;
   resident_same = false;
-  gathered_send(next.send, unchanged);
+  gathered_send(next.send, unchanged, true);
+  if (next.send.xv_kept) run_sum.xv_kept++;
   next.pending = true;
   next.spoiled = false;
   next.step = update->ntimestep + 1;
@@ -246,7 +256,8 @@ void FixHardSphere::run_ahead_gathered()
     next.atoms = gathered_atoms(next.send);
     next.atoms.motion.use = HSGPU::Collide::MotionUse::advance;
     next.atoms.motion.fused = motion_way == MOTION_FUSED;
-    next.atoms.motion.move = gathered_motion();
+    next.atoms.motion.move =
+        gathered_motion(next.send.xv_kept && neighbor->ncalls != gath.builds);
     next.box = resident_box();
     next.params = step_params();
     next.tally = HSGPU::Collide::Tally();

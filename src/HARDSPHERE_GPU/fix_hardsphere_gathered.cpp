@@ -26,6 +26,7 @@
 #include "comm.h"
 #include "error.h"
 #include "force.h"
+#include "neighbor.h"
 #include "update.h"
 #include "utils.h"
 
@@ -49,7 +50,7 @@ using HSGPU::Collide::Tally;
    atoms then go through MPI, and so for the rest of the run, with a note in the log).
    HSGPU_GATHER_MPI in the environment: never tried. */
 bool FixHardSphere::share_inputs(long n, int nlocal, const Source &src, bool statics,
-                                 bool no_forces)
+                                 bool no_forces, bool xv)
 {
   if (!gath.ipc) return false;
   const int me = comm->me;
@@ -81,7 +82,8 @@ bool FixHardSphere::share_inputs(long n, int nlocal, const Source &src, bool sta
     try {
       const int idb = (int) sizeof(tagint);
       if (me == 0) {
-        resident->put_inputs(first, nlocal, src.x, src.v, no_forces ? nullptr : src.f, src.room);
+        resident->put_inputs(first, nlocal, xv ? src.x : nullptr, xv ? src.v : nullptr,
+                             no_forces ? nullptr : src.f, src.room);
         if (friction_on) resident->put_spin(first, nlocal, src.omega);
         if (statics)
           resident->put_statics(first, nlocal, src.tlast, src.radius, src.rmass, src.type, src.id,
@@ -89,7 +91,8 @@ bool FixHardSphere::share_inputs(long n, int nlocal, const Source &src, bool sta
       } else {
         if (!peer) throw std::runtime_error("no device for the gathered step's inputs");
         peer->open(h);
-        peer->put(first, nlocal, src.x, src.v, no_forces ? nullptr : src.f, src.room);
+        peer->put(first, nlocal, xv ? src.x : nullptr, xv ? src.v : nullptr,
+                  no_forces ? nullptr : src.f, src.room);
         if (friction_on) peer->put_spin(first, nlocal, src.omega);
         if (statics)
           peer->put_statics(first, nlocal, src.tlast, src.radius, src.rmass, src.type, src.id,
@@ -164,7 +167,7 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
 /* The first half of the gathered step: every rank's atoms (x, v, f, and where some rank's atoms
    moved in its arrays since the last such step also tlast, radius, rmass, type, id) to rank 0's
    device, or its host.  unchanged: this rank's arrays hold what the last gathered step left. */
-void FixHardSphere::gathered_send(GatheredSend &s, bool unchanged)
+void FixHardSphere::gathered_send(GatheredSend &s, bool unchanged, bool keep_xv)
 {
   const int np = comm->nprocs, me = comm->me;
   s = GatheredSend();
@@ -222,7 +225,12 @@ void FixHardSphere::gathered_send(GatheredSend &s, bool unchanged)
   const bool no_forces = forces_none && forces_checked;
   // x, v and f straight into rank 0's device where every rank can reach it (one node, CUDA
   // IPC): each rank copies its own atoms there, all at once; else through rank 0's host.
-  const bool shared = share_inputs(n, nlocal, src, !same, no_forces);
+  // keep_xv (a step run ahead): where no rank's atoms moved in its arrays and rank 0's device
+  // kept the last step's end state (results_whole()), x and v stay there; the device wraps
+  // them into the box where LAMMPS reneighbored since (gathered_motion()).
+  const bool xv_kept = keep_xv && same && gath.state_kept;
+  const bool shared = share_inputs(n, nlocal, src, !same, no_forces, !xv_kept);
+  s.xv_kept = xv_kept && shared;
   if (!shared) {
     gather(src.x, 3, MPI_DOUBLE, gath.all.x.data());
     gather(src.v, 3, MPI_DOUBLE, gath.all.v.data());
@@ -329,6 +337,7 @@ int FixHardSphere::gathered_finish(const GatheredSend &s, GatheredResult r, Tall
   // The gathers and scatters as one collective, with the bytes this rank received.
   count_collective(moved);
   count_resident(report);
+  gath.state_kept = false;
   if (report.outcome != HSGPU::Collide::ResidentOutcome::done) return 0;
   // Counts for every rank; the virial and energy of the step stay with rank 0's `mine` (LAMMPS
   // sums the fix's virial over the ranks).
@@ -340,6 +349,8 @@ int FixHardSphere::gathered_finish(const GatheredSend &s, GatheredResult r, Tall
   all.capped = (int) r.capped;
   all.ke_lost = r.ke_lost;
   resident_same = s.whole;
+  gath.state_kept = state_back(s);
+  gath.builds = neighbor->ncalls;
   vend2 = report.vend2;
   return 2;
 }

@@ -217,7 +217,7 @@ void FixHardSphere::motion_check_gathered()
   if (valid && src.n > 0)
     HSGPU::Collide::count_motion_misses(mcheck.x0.data(), mcheck.v0.data(),
                                         mcheck.f0.empty() ? nullptr : mcheck.f0.data(),
-                                        atom->rmass, src.x, src.v, src.n, gathered_motion(),
+                                        atom->rmass, src.x, src.v, src.n, gathered_motion(false),
                                         miss);
   miss[4] = valid ? 0 : 1;
   long long sum[5] = {0, 0, 0, 0, 0};
@@ -244,10 +244,11 @@ std::string FixHardSphere::motion_summary() const
       return "the gathered step is not run ahead: a fix's post_force() comes after this one's";
     return fmt::format("{} gathered steps run ahead on rank 0's device during LAMMPS's "
                        "integration ({} of them dropped), from every rank's x, v and f at the "
-                       "step before's post_force, moved there as fix nve moves them ({}; checked "
+                       "step before's post_force (on {} of them x and v kept there from the "
+                       "step before), moved there as fix nve moves them ({}; checked "
                        "against LAMMPS's on {} steps); {:.4g} ms per step run ahead waiting for "
                        "it and for the ranks to agree to take it",
-                       run_sum.ahead, run_sum.dropped, way, run_sum.checked,
+                       run_sum.ahead, run_sum.dropped, run_sum.xv_kept, way, run_sum.checked,
                        run_sum.ahead ? 1e3 * run_sum.t_ahead_wait / run_sum.ahead : 0.0);
   }
   const char *way = motion_way == MOTION_PLAIN ? "rounded as fix nve rounds them, "

@@ -1063,6 +1063,7 @@ void FixHardSphere::setup(int vflag)
   forces_checked = false;
   motion_way = MOTION_UNKNOWN;    // each run checks the integrator's rounding again
   motion_unchecked = 0;
+  gath.state_kept = false;    // commands between runs may have changed x and v
   // The virial and the collision count are the last step's (or the restart file's): the
   // run's first thermo output shows the collisions' share of the pressure, as every later
   // one does.
