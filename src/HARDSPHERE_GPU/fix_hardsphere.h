@@ -175,6 +175,7 @@ class FixHardSphere : public Fix {
     bigint moved = 0, checked = 0;    // device steps with x, v moved there, or checked (gpu/keep)
     bigint ahead = 0, dropped = 0;    // steps run ahead during LAMMPS's integration, dropped
     bigint xv_kept = 0;    // gathered steps run ahead with x and v kept on rank 0's device
+    bigint reordered = 0;  // of them with the atoms found there by ID
     double t_ahead_wait = 0.0;    // seconds the steps run ahead were waited for (with the
                                   // ranks' agreement to take them, on several ranks)
   } run_sum;
@@ -272,6 +273,7 @@ class FixHardSphere : public Fix {
     bool shared = false;      // in rank 0's device buffers (CUDA IPC), else its host's
     bool no_forces = false;   // f not sent (zero)
     bool xv_kept = false;     // x and v not sent: rank 0's device kept the last step's
+    bool reordered = false;   // and found by the IDs sent instead of tlast, radius, ...
     double t_gather = 0.0;    // seconds sending
     double moved = 0.0;       // bytes this rank received
   };
@@ -368,6 +370,7 @@ class FixHardSphere : public Fix {
     bool ipc_whole = true;        // each rank reads its atoms' end state from there
     bool state_kept = false;      // the last step's end state is in rank 0's device buffers
     bigint builds = -1;           // neighbor->ncalls at the end of the last step
+    long n_kept = -1;             // and its atoms
     std::vector<char> rhandles;   // rank 0's device copies of the results
     std::vector<int> span;        // per rank: its first result and how many (rank 0)
     std::vector<HSGPU::Collide::ResidentResult> rres;    // this rank's results, read there
@@ -431,7 +434,7 @@ class FixHardSphere : public Fix {
   int step_resident(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   int step_gathered(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   bool share_inputs(long n, int nlocal, const Source &src, bool statics, bool no_forces,
-                    bool xv = true);
+                    bool xv = true, bool ids_only = false);
   void results_mpi(int nlocal, bool whole, double &moved);
   bool results_shared(int nlocal, bool whole, double &moved);
   bool state_back(const GatheredSend &s) const;

@@ -170,6 +170,7 @@ void FixHardSphere::forget_ahead()
 {
   if (resident) resident->forget_host_arrays();
   resident_same = false;
+  gath.state_kept = false;    // the device moved its state on with the step dropped
   run_sum.dropped++;
 }
 
@@ -241,6 +242,7 @@ void FixHardSphere::run_ahead_gathered()
   resident_same = false;
   gathered_send(next.send, unchanged, true);
   if (next.send.xv_kept) run_sum.xv_kept++;
+  if (next.send.reordered) run_sum.reordered++;
   next.pending = true;
   next.spoiled = false;
   next.step = update->ntimestep + 1;
@@ -281,12 +283,6 @@ int FixHardSphere::take_ahead_gathered(HSGPU::Collide::Tally &mine, HSGPU::Colli
   next.pending = false;
   const double t_start = MPI_Wtime();
   const Source src = atom_source();
-  int ok = !next.spoiled && update->ntimestep == next.step && neighbor->ncalls == next.builds &&
-      update->dt == next.dt && resident_usable() && src.n == next.nlocal && src.x == next.x &&
-      src.v == next.v && src.f == next.f && tlast == next.tlast;
-  int all_ok = 0;
-  MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, world);
-  count_collective(sizeof(int));
   if (comm->me == 0) {
     try {
       ahead->wait();
@@ -294,6 +290,17 @@ int FixHardSphere::take_ahead_gathered(HSGPU::Collide::Tally &mine, HSGPU::Colli
       error->one(FLERR, "Fix hardsphere: CUDA device {}: {}", backend_device, e.what());
     }
   }
+  // Rank 0's device did the step from what the ranks sent (an ID new to it, or no state kept
+  // where the ranks sent none, and it did nothing).
+  const bool stepped =
+      comm->me != 0 || next.report.motion == HSGPU::Collide::MotionUse::advance;
+  int ok = stepped && !next.spoiled && update->ntimestep == next.step &&
+      neighbor->ncalls == next.builds && update->dt == next.dt && resident_usable() &&
+      src.n == next.nlocal && src.x == next.x && src.v == next.v && src.f == next.f &&
+      tlast == next.tlast;
+  int all_ok = 0;
+  MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, world);
+  count_collective(sizeof(int));
   run_sum.t_ahead_wait += MPI_Wtime() - t_start;
   if (!all_ok) {
     forget_ahead();

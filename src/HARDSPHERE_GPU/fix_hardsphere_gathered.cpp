@@ -50,7 +50,7 @@ using HSGPU::Collide::Tally;
    atoms then go through MPI, and so for the rest of the run, with a note in the log).
    HSGPU_GATHER_MPI in the environment: never tried. */
 bool FixHardSphere::share_inputs(long n, int nlocal, const Source &src, bool statics,
-                                 bool no_forces, bool xv)
+                                 bool no_forces, bool xv, bool ids_only)
 {
   if (!gath.ipc) return false;
   const int me = comm->me;
@@ -85,7 +85,9 @@ bool FixHardSphere::share_inputs(long n, int nlocal, const Source &src, bool sta
         resident->put_inputs(first, nlocal, xv ? src.x : nullptr, xv ? src.v : nullptr,
                              no_forces ? nullptr : src.f, src.room);
         if (friction_on) resident->put_spin(first, nlocal, src.omega);
-        if (statics)
+        if (ids_only)
+          resident->put_ids(first, nlocal, src.id, idb);
+        else if (statics)
           resident->put_statics(first, nlocal, src.tlast, src.radius, src.rmass, src.type, src.id,
                                 idb);
       } else {
@@ -94,7 +96,9 @@ bool FixHardSphere::share_inputs(long n, int nlocal, const Source &src, bool sta
         peer->put(first, nlocal, xv ? src.x : nullptr, xv ? src.v : nullptr,
                   no_forces ? nullptr : src.f, src.room);
         if (friction_on) peer->put_spin(first, nlocal, src.omega);
-        if (statics)
+        if (ids_only)
+          peer->put_ids(first, nlocal, src.id, idb);
+        else if (statics)
           peer->put_statics(first, nlocal, src.tlast, src.radius, src.rmass, src.type, src.id,
                             idb);
       }
@@ -142,6 +146,9 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
   // group never: its atoms are packed anew every step).
   const bool unchanged = igroup == 0 && resident_same && !sizes_vary;
   resident_same = false;
+  // Rank 0's device holds this step's end state again only where it does the step (a step
+  // on the host, with per-atom virial, moves the atoms without it).
+  gath.state_kept = false;
   if (!resident_usable()) return 0;
   GatheredSend s;
   gathered_send(s, unchanged);
@@ -228,9 +235,15 @@ void FixHardSphere::gathered_send(GatheredSend &s, bool unchanged, bool keep_xv)
   // keep_xv (a step run ahead): where no rank's atoms moved in its arrays and rank 0's device
   // kept the last step's end state (results_whole()), x and v stay there; the device wraps
   // them into the box where LAMMPS reneighbored since (gathered_motion()).
-  const bool xv_kept = keep_xv && same && gath.state_kept;
-  const bool shared = share_inputs(n, nlocal, src, !same, no_forces, !xv_kept);
+  // Where atoms moved between ranks or in their arrays but none arrived or left, the ranks
+  // send their atoms' IDs instead, and the device finds each atom's kept state by its ID
+  // (ResidentAtoms::reordered; where an ID is new to it, the step is not taken).
+  const bool reordered = keep_xv && !same && gath.state_kept && n == gath.n_kept &&
+      igroup == 0 && !sizes_vary && !friction_on;
+  const bool xv_kept = keep_xv && (same || reordered) && gath.state_kept;
+  const bool shared = share_inputs(n, nlocal, src, !same, no_forces, !xv_kept, reordered);
   s.xv_kept = xv_kept && shared;
+  s.reordered = reordered && shared;
   if (!shared) {
     gather(src.x, 3, MPI_DOUBLE, gath.all.x.data());
     gather(src.v, 3, MPI_DOUBLE, gath.all.v.data());
@@ -260,6 +273,7 @@ HSGPU::Collide::ResidentAtoms FixHardSphere::gathered_atoms(const GatheredSend &
   a.inputs_shared = s.shared;
   a.zero_forces = s.no_forces;
   a.statics_shared = s.shared && !s.same;
+  a.reordered = s.reordered;
   a.spin_shared = s.shared && friction_on;
   a.results = &gath.results;    // the atoms with events listed, to go back to their ranks
   a.result_spin = &gath.rspin;
@@ -350,6 +364,7 @@ int FixHardSphere::gathered_finish(const GatheredSend &s, GatheredResult r, Tall
   all.ke_lost = r.ke_lost;
   resident_same = s.whole;
   gath.state_kept = state_back(s);
+  gath.n_kept = s.n;
   gath.builds = neighbor->ncalls;
   vend2 = report.vend2;
   return 2;

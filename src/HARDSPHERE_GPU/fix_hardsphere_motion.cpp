@@ -245,10 +245,12 @@ std::string FixHardSphere::motion_summary() const
     return fmt::format("{} gathered steps run ahead on rank 0's device during LAMMPS's "
                        "integration ({} of them dropped), from every rank's x, v and f at the "
                        "step before's post_force (on {} of them x and v kept there from the "
-                       "step before), moved there as fix nve moves them ({}; checked "
-                       "against LAMMPS's on {} steps); {:.4g} ms per step run ahead waiting for "
-                       "it and for the ranks to agree to take it",
-                       run_sum.ahead, run_sum.dropped, run_sum.xv_kept, way, run_sum.checked,
+                       "step before, on {} of those found there by the atoms' IDs), moved there "
+                       "as fix nve moves them ({}; checked against LAMMPS's on {} steps); {:.4g} "
+                       "ms per step run ahead waiting for it and for the ranks to agree to take "
+                       "it",
+                       run_sum.ahead, run_sum.dropped, run_sum.xv_kept, run_sum.reordered, way,
+                       run_sum.checked,
                        run_sum.ahead ? 1e3 * run_sum.t_ahead_wait / run_sum.ahead : 0.0);
   }
   const char *way = motion_way == MOTION_PLAIN ? "rounded as fix nve rounds them, "

@@ -11,6 +11,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstring>
+#include <memory>
 
 using namespace hsgpu_test;
 
@@ -256,4 +258,136 @@ TEST(ResidentStepCuda, KeptMotionEqualsCopiesBitwise)
 {
   if (HSGPU::GPU::device_count() == 0) GTEST_SKIP() << "no CUDA device";
   check_kept_motion([] { return make_cuda_resident_step(0); }, true);
+}
+
+// The gathered step's atoms found by ID (ResidentAtoms::reordered, the shared buffers of
+// share_inputs()): between steps the atoms are wrapped into the box and put in another order
+// (as LAMMPS's reneighboring, exchange and sort do); the step that gets only their IDs and
+// finds each atom's kept end state by ID gives the bits of the step that gets every array in
+// the new order.  An ID the last step did not have: nothing done, and nothing kept after.
+TEST(ResidentStepCuda, AtomsFoundByIdEqualCopies)
+{
+  if (HSGPU::GPU::device_count() == 0) GTEST_SKIP() << "no CUDA device";
+  const double dt = 0.2;
+  const LatticeGas g(12, 1.1, dt, 4242, 1);
+  const int n = g.n;
+  StepMotion wrap;
+  wrap.dtf = 0.5 * dt;
+  wrap.dtv = dt;
+  for (int d = 0; d < 3; ++d) {
+    wrap.lo[d] = g.box.lo[d];
+    wrap.prd[d] = g.box.prd[d];
+    wrap.hi[d] = g.box.lo[d] + g.box.prd[d];
+    wrap.periodic[d] = 1;
+  }
+  struct Run {
+    std::unique_ptr<ResidentStep> rs = make_cuda_resident_step(0);
+    std::vector<double> x, v, tlast, radius, rmass;
+    std::vector<int> type, id;
+    std::vector<ResidentResult> res;
+    long pairs = 0;
+  };
+  unsigned seed = 99;
+  std::vector<int> perm(n);
+  // The caller's arrays after a reneighboring: wrapped, then in the order perm.
+  auto reorder = [&](Run &r) {
+    auto take = [&](auto &a, int per) {
+      auto was = a;
+      for (int j = 0; j < n; ++j)
+        for (int d = 0; d < per; ++d) a[per * j + d] = was[per * perm[j] + d];
+    };
+    for (int i = 0; i < n; ++i) pbc_wrap(&r.x[3 * i], wrap);
+    take(r.x, 3);
+    take(r.v, 3);
+    take(r.tlast, 1);
+    take(r.radius, 1);
+    take(r.rmass, 1);
+    take(r.type, 1);
+    take(r.id, 1);
+  };
+  // One step; by_id: the IDs only, else every array.
+  auto step = [&](Run &r, bool by_id) {
+    std::vector<char> h;
+    ASSERT_TRUE(r.rs->share_inputs(n, (int) sizeof(int), false, h));
+    if (by_id) {
+      r.rs->put_ids(0, n, r.id.data(), (int) sizeof(int));
+    } else {
+      r.rs->put_inputs(0, n, r.x.data(), r.v.data(), nullptr, n);
+      r.rs->put_statics(0, n, r.tlast.data(), r.radius.data(), r.rmass.data(), r.type.data(),
+                        r.id.data(), (int) sizeof(int));
+    }
+    ResidentAtoms a = g.atoms(r.x.data(), r.v.data(), r.tlast.data(), r.radius.data(), -1.0);
+    a.rmass = r.rmass.data();
+    a.type = r.type.data();
+    a.id = r.id.data();
+    a.inputs_shared = a.statics_shared = true;
+    a.zero_forces = true;
+    a.results = &r.res;
+    a.reordered = by_id;
+    a.motion.use = MotionUse::advance;
+    a.motion.keep = true;
+    a.motion.move = wrap;
+    a.motion.move.wrap = by_id;    // the caller's arrays were wrapped, the kept state not
+    Tally t;
+    ResidentReport rep;
+    r.rs->run_atoms(a, g.box, g.p, g.s, t, rep);
+    ASSERT_EQ(rep.outcome, ResidentOutcome::done);
+    ASSERT_EQ(rep.motion, MotionUse::advance);
+    ASSERT_TRUE(r.rs->get_atoms(0, n, r.x.data(), r.v.data(), r.tlast.data()));
+    r.pairs += t.pair;
+  };
+  Run ids, copies;
+  for (Run *r : {&ids, &copies}) {
+    r->x = g.x;
+    r->v = g.v;
+    r->tlast.assign(n, -1e30);
+    r->radius = g.radius;
+    r->rmass = g.rmass;
+    r->type = g.type;
+    r->id = g.id;
+    // Two sizes and masses, so that a wrong atom's state would show.
+    for (int i = 0; i < n; i += 3) {
+      r->radius[i] = 0.4;
+      r->rmass[i] = 0.6;
+    }
+  }
+  for (int k = 0; k < 6; ++k) {
+    if (k > 0) {
+      for (int j = 0; j < n; ++j) perm[j] = j;
+      for (int j = n - 1; j > 0; --j) {
+        seed = seed * 1103515245u + 12345u;
+        std::swap(perm[j], perm[(seed >> 8) % (unsigned) (j + 1)]);
+      }
+      reorder(ids);
+      reorder(copies);
+    }
+    step(ids, k > 0);
+    step(copies, false);
+  }
+  EXPECT_GT(copies.pairs, 100) << "enough collisions to mean anything";
+  EXPECT_EQ(ids.pairs, copies.pairs);
+  EXPECT_EQ(ids.id, copies.id);
+  EXPECT_EQ(0, std::memcmp(ids.x.data(), copies.x.data(), 3 * n * sizeof(double)));
+  EXPECT_EQ(0, std::memcmp(ids.v.data(), copies.v.data(), 3 * n * sizeof(double)));
+  EXPECT_EQ(0, std::memcmp(ids.tlast.data(), copies.tlast.data(), n * sizeof(double)));
+  // An ID the last step did not have: nothing done, and no state kept for the next.
+  for (int round = 0; round < 2; ++round) {
+    std::vector<char> h;
+    ASSERT_TRUE(ids.rs->share_inputs(n, (int) sizeof(int), false, h));
+    std::vector<int> bad = ids.id;
+    if (round == 0) bad[n / 2] = 10 * n;
+    ids.rs->put_ids(0, n, bad.data(), (int) sizeof(int));
+    ResidentAtoms a = g.atoms(ids.x.data(), ids.v.data(), ids.tlast.data(), ids.radius.data(), -1.0);
+    a.inputs_shared = a.statics_shared = a.zero_forces = a.reordered = true;
+    a.results = &ids.res;
+    a.motion.use = MotionUse::advance;
+    a.motion.keep = true;
+    a.motion.move = wrap;
+    Tally t;
+    ResidentReport rep;
+    ids.rs->run_atoms(a, g.box, g.p, g.s, t, rep);
+    EXPECT_EQ(rep.motion, MotionUse::copy) << "round " << round;
+    EXPECT_EQ(t.pair, 0) << "round " << round;
+    EXPECT_FALSE(ids.rs->get_atoms(0, n, ids.x.data(), ids.v.data(), ids.tlast.data()));
+  }
 }

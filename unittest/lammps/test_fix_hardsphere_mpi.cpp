@@ -420,7 +420,7 @@ TEST(FixHardSphereMPI, GatheredStepRunAheadAgreesWithSingleRank)
       EXPECT_GT(single.f[1], 1000.0) << c.name;
       EXPECT_GT(ahead.on_device, 150.0) << c.name;
       const std::string text = hsgpu_test::file_text(log);
-      int n_ahead = 0, dropped = 0, checked = 0, kept = 0;
+      int n_ahead = 0, dropped = 0, checked = 0, kept = 0, by_id = 0;
       if (c.ahead) {
         const size_t at = text.find("gathered steps run ahead on rank 0's device");
         ASSERT_NE(at, std::string::npos) << c.name << "\n" << text;
@@ -440,11 +440,18 @@ TEST(FixHardSphereMPI, GatheredStepRunAheadAgreesWithSingleRank)
         const size_t kp = line.find("(on ");
         ASSERT_NE(kp, std::string::npos) << line;
         kept = std::atoi(line.c_str() + kp + 4);
-        if (cuda && !mpi && !c.gravity) {
-          EXPECT_GT(kept, 20) << line;
+        // And where atoms moved between ranks or in the arrays (the exchanges, the sorts),
+        // found there by their IDs.
+        const size_t rp = line.find("step before, on ");
+        ASSERT_NE(rp, std::string::npos) << line;
+        by_id = std::atoi(line.c_str() + rp + std::strlen("step before, on "));
+        if (cuda && !mpi) {
+          EXPECT_GT(kept, c.gravity ? 100 : 20) << line;
+          EXPECT_GT(by_id, 10) << line;
         }
         if (!cuda || mpi) {
           EXPECT_EQ(kept, 0) << line;
+          EXPECT_EQ(by_id, 0) << line;
         }
         EXPECT_NE(line.find("rounded as fix nve rounds them"), std::string::npos) << line;
         // The first check, then one after each 100 steps run ahead.
@@ -462,10 +469,10 @@ TEST(FixHardSphereMPI, GatheredStepRunAheadAgreesWithSingleRank)
       }
       std::printf("[ MPI      ] %d ranks, gathered %s step run ahead, %s%s: %.0f collisions, "
                   "%.0f of 250 steps on the device, %d run ahead (%d dropped, %d with x and v "
-                  "kept), %d checks\n",
+                  "kept, %d of them found by ID), %d checks\n",
                   np, cuda ? "CUDA" : "host reference", c.name,
                   mpi || !cuda ? " (through MPI)" : "", single.f[1], ahead.on_device, n_ahead,
-                  dropped, kept, checked);
+                  dropped, kept, by_id, checked);
     }
     MPI_Barrier(MPI_COMM_WORLD);
   }

@@ -163,6 +163,15 @@ namespace Collide {
     // The caller vouches that f is zero for every atom (no style sets forces: FixHardSphere::
     // forces_none): f is not read or copied up, the device uses zeros.
     bool zero_forces = false;
+    // The gathered step of several ranks after LAMMPS moved atoms between ranks or in their
+    // arrays (FixHardSphere, a step run ahead): the shared buffers hold this step's f and, in
+    // the slot of the IDs, the atoms' IDs in their new order (put_ids()); their x, v, tlast,
+    // radius, rmass and type are the last step's end state (KeptMotion::keep, listed results),
+    // which the step finds by ID before it moves x and v (MotionUse::advance with wrap).
+    // Where an ID was not among the last step's, or the step has no such state, it returns
+    // at once with ResidentReport::motion copy and nothing done, its kept state gone (the
+    // caller sends everything again).  Only with inputs_shared and statics_shared.
+    bool reordered = false;
     // How x and v get to the step (KeptMotion); check and predict only with x, v, f of the
     // caller's (not inputs_shared, not results) and no omega; advance with any of those but
     // omega.
@@ -247,6 +256,15 @@ namespace Collide {
       (void) radius;
       (void) rmass;
       (void) type;
+      (void) id;
+      (void) id_bytes;
+    }
+    /// Copies count atoms' IDs (id_bytes each) from this process into atoms [first, first +
+    /// count) of the ID buffer of share_inputs(), and waits (ResidentAtoms::reordered).
+    virtual void put_ids(long first, long count, const void *id, int id_bytes)
+    {
+      (void) first;
+      (void) count;
       (void) id;
       (void) id_bytes;
     }

@@ -61,6 +61,10 @@ namespace GPU {
   {
     throw Error("built without CUDA");
   }
+  void PeerInputs::put_ids(long, long, const void *, int)
+  {
+    throw Error("built without CUDA");
+  }
   void PeerInputs::get_atoms(long, long, double *, double *, double *)
   {
     throw Error("built without CUDA");

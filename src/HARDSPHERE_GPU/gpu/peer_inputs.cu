@@ -140,6 +140,17 @@ namespace GPU {
                            impl->stream, "cudaMemcpy(atoms to the gathering device)");
   }
 
+  void PeerInputs::put_ids(long first, long count, const void *id, int id_bytes)
+  {
+    if (count <= 0) return;
+    if (!impl->buf[7]) throw Error("PeerInputs: no buffers open");
+    cuda_check(cudaSetDevice(impl->device), "cudaSetDevice");
+    cuda_check(cudaMemcpyAsync(static_cast<char *>(impl->buf[7]) + (size_t) id_bytes * first, id,
+                               (size_t) id_bytes * count, cudaMemcpyDefault, impl->stream),
+               "cudaMemcpy(atoms to the gathering device)");
+    cuda_check(cudaStreamSynchronize(impl->stream), "cudaMemcpy(atoms to the gathering device)");
+  }
+
   void PeerInputs::get_atoms(long first, long count, double *x, double *v, double *tlast)
   {
     if (count <= 0) return;

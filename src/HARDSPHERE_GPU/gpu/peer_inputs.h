@@ -41,6 +41,9 @@ namespace GPU {
     /// these move only after atoms moved in a rank's arrays).
     void put_statics(long first, long count, const double *tlast, const double *radius,
                      const double *rmass, const int *type, const void *id, int id_bytes);
+    /// Copies count atoms' IDs (id_bytes each) into atoms [first, first + count) of the open
+    /// ID buffer and waits (ResidentStep::put_ids()).
+    void put_ids(long first, long count, const void *id, int id_bytes);
     /// Opens the buffers of `handles` (ResidentStep::share_results()'s bytes: the results of
     /// the gathering device's step, every atom's tlast, and for rough spheres the results'
     /// angular velocities) unless they are open now.

@@ -973,6 +973,66 @@ namespace Collide {
       for (int k = 0; k < 3; ++k) atomic_max_bits(&out[k], m.v[k]);
     }
 
+    // The gathered step's atoms found by ID (ResidentAtoms::reordered): after LAMMPS moved
+    // atoms between ranks and in their arrays, the ranks send their atoms' IDs in the new
+    // order, and each atom's kept end state of the step before is found by its ID.
+
+    // Launch: blocks of BLOCK threads, one thread per atom (n).  The largest of the n IDs into
+    // *most (zeroed), one atomic per block.  Reads id_bytes per atom.
+    template <class IdT>
+    __global__ void id_max_kernel(const IdT *__restrict__ id, int n, unsigned long long *most)
+    {
+      __shared__ unsigned long long m;
+      if (threadIdx.x == 0) m = 0;
+      __syncthreads();
+      const int i = blockIdx.x * blockDim.x + threadIdx.x;
+      if (i < n && id[i] > 0) atomicMax(&m, (unsigned long long) id[i]);
+      __syncthreads();
+      if (threadIdx.x == 0 && m) atomicMax(most, m);
+    }
+
+    // Launch: one thread per atom (n).  slot[id] = the atom's index, for IDs 1 .. the largest.
+    // Writes 4 bytes per atom, reads id_bytes.
+    template <class IdT>
+    __global__ void id_slot_kernel(const IdT *__restrict__ id, int n, int *__restrict__ slot)
+    {
+      const int i = blockIdx.x * blockDim.x + threadIdx.x;
+      if (i < n && id[i] > 0) slot[id[i]] = i;
+    }
+
+    // Launch: one thread per atom (n) of the new order.  Atom j with ID nid[j] takes the kept
+    // state of the old atom s = slot[nid[j]] (x, v: 3 doubles; tlast, radius, mass; type) into
+    // the scratch arrays; where no old atom has that ID (checked against oid: the slots are
+    // not cleared between steps), *missing counts it.  Reads and writes 76 bytes per atom.
+    template <class IdT>
+    __global__ void reorder_kernel(const IdT *__restrict__ nid, const IdT *__restrict__ oid,
+                                   const int *__restrict__ slot, long long most, int n,
+                                   const double *__restrict__ x, const double *__restrict__ v,
+                                   const double *__restrict__ tl, const double *__restrict__ rad,
+                                   const double *__restrict__ mass, const int *__restrict__ type,
+                                   double *__restrict__ x2, double *__restrict__ v2,
+                                   double *__restrict__ tl2, double *__restrict__ rad2,
+                                   double *__restrict__ mass2, int *__restrict__ type2,
+                                   unsigned long long *missing)
+    {
+      const int j = blockIdx.x * blockDim.x + threadIdx.x;
+      if (j >= n) return;
+      const IdT id = nid[j];
+      const int s = (id > 0 && (long long) id <= most) ? slot[id] : -1;
+      if (s < 0 || s >= n || oid[s] != id) {
+        atomicAdd(missing, 1ULL);
+        return;
+      }
+      for (int d = 0; d < 3; ++d) {
+        x2[3 * j + d] = x[3 * s + d];
+        v2[3 * j + d] = v[3 * s + d];
+      }
+      tl2[j] = tl[s];
+      rad2[j] = rad[s];
+      mass2[j] = mass[s];
+      type2[j] = type[s];
+    }
+
     // Launch: one thread per body (n).  Every atom's time of last collision, relative to the
     // step end (the host's shift: max(t - dt, never)), into the device copy of the caller's.
     __global__ void tlast_end_kernel(const Body *__restrict__ bodies, int n, double dt,

@@ -90,6 +90,7 @@
 #include <thrust/iterator/counting_iterator.h>
 
 #include <algorithm>
+#include <climits>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -166,8 +167,10 @@ namespace Collide {
         host_budget.release();
         if (serial_exec) cudaGraphExecDestroy(serial_exec);
         for (DeviceBuffer *b : {&d_ax, &d_av, &d_af, &d_arad, &d_amass, &d_atlast, &d_atype,
-                                &d_aid, &d_aomega, &d_kx, &d_kv})
+                                &d_aid, &d_aomega, &d_kx, &d_kv, &d_oid, &d_slot, &d_rx, &d_rv,
+                                &d_rt, &d_rr, &d_rm, &d_rty, &d_most})
           b->release();
+        host_most.release();
         for (HostRangeLock &l : locked) l.release();
         if (ev_up0) cudaEventDestroy(ev_up0);
         if (ev_up1) cudaEventDestroy(ev_up1);
@@ -260,7 +263,7 @@ namespace Collide {
         for (int k = 0; k < NLOCKED; ++k) {
           const void *was = bufs[k].b->ptr;
           bufs[k].b->reserve(bufs[k].bytes, "cudaMalloc(atoms)");
-          if (bufs[k].b->ptr != was) kept = false;    // the device copies are gone
+          if (bufs[k].b->ptr != was) kept = ids_kept = false;    // the device copies are gone
           if (cudaIpcGetMemHandle(&h[k], bufs[k].b->ptr) != cudaSuccess) {
             (void) cudaGetLastError();
             return false;
@@ -316,6 +319,17 @@ namespace Collide {
         return true;
       }
 
+      void put_ids(long first, long count, const void *id, int id_bytes) override
+      {
+        if (count <= 0) return;
+        state_kept = false;
+        cuda_check(cudaSetDevice(device), "cudaSetDevice");
+        cuda_check(cudaMemcpyAsync(d_aid.as<char>() + (size_t) id_bytes * first, id,
+                                   (size_t) id_bytes * count, cudaMemcpyDefault, stream),
+                   "cudaMemcpy(atoms)");
+        cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(atoms)");
+      }
+
       bool get_atoms(long first, long count, double *x, double *v, double *tlast) override
       {
         if (!state_kept) return false;
@@ -331,6 +345,7 @@ namespace Collide {
                        int id_bytes) override
       {
         state_kept = false;
+        ids_kept = false;
         if (count <= 0) return;
         cuda_check(cudaSetDevice(device), "cudaSetDevice");
         void *const dst[5] = {d_atlast.ptr, d_arad.ptr, d_amass.ptr, d_atype.ptr, d_aid.ptr};
@@ -341,6 +356,7 @@ namespace Collide {
       void forget_host_arrays() override
       {
         state_kept = false;
+        ids_kept = false;
         cudaSetDevice(device);
         for (HostRangeLock &l : locked) l.release();
         kept = false;
@@ -365,6 +381,13 @@ namespace Collide {
       DeviceBuffer d_rspin;    // run_atoms(): the results' angular velocities (rough spheres)
       // The last run_atoms() left its end state in d_ax, d_av and d_atlast for get_atoms().
       bool state_kept = false;
+      // ResidentAtoms::reordered: the end state's IDs in its order (ids_kept: d_oid holds the
+      // last done step's oid_n IDs, and d_ax, ... its end state), the IDs' slots, scratch.
+      bool ids_kept = false;
+      int oid_n = 0, oid_bytes = 0;
+      DeviceBuffer d_oid, d_slot, d_rx, d_rv, d_rt, d_rr, d_rm, d_rty, d_most;
+      PinnedBuffer host_most;
+      bool reorder(const ResidentAtoms &a);
       // Window bounds and joined flags come in two sets, window k's in set k % 2, so that the
       // next window's first try can be set up while this one's check may still repair it.
       DeviceBuffer d_wbound2, d_joined2;
@@ -1456,6 +1479,16 @@ namespace Collide {
       host_budget.reserve(NBUDGET * sizeof(unsigned long long), "cudaMallocHost(budget)");
       cuda_check(cudaMemsetAsync(d_budget.ptr, 0, NBUDGET * sizeof(unsigned long long), stream),
                  "cudaMemset");
+      // The last step's IDs and end state are valid until this step moves anything.
+      const bool ids_were = ids_kept;
+      ids_kept = false;
+      if (a.reordered && !(ids_were && reorder(a))) {
+        // An ID the last step did not have (or no kept state): nothing done, nothing kept.
+        report.motion = MotionUse::copy;
+        kept = false;
+        cuda_check(cudaStreamSynchronize(stream), "resident step");
+        return;
+      }
       if (moved || advance) {
         verlet_kernel<<<nblocks(n), BLOCK, 0, stream>>>(d_ax.as<double>(), d_av.as<double>(),
                                                         d_af.as<double>(), d_amass.as<double>(),
@@ -1567,6 +1600,77 @@ namespace Collide {
       // writes them).
       motion_done(a, keep_motion && own);
       state_kept = keep_motion && a.results;
+      // The end state's IDs, for the next step's atoms found by ID.
+      ids_kept = false;
+      if (state_kept && a.inputs_shared) {
+        const size_t nid = (size_t) n * a.id_bytes;
+        d_oid.reserve(nid + 8, "cudaMalloc(atom IDs)");
+        cuda_check(cudaMemcpyAsync(d_oid.ptr, d_aid.ptr, nid, cudaMemcpyDeviceToDevice, stream),
+                   "cudaMemcpy(atom IDs)");
+        cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(atom IDs)");
+        ids_kept = true;
+        oid_n = n;
+        oid_bytes = a.id_bytes;
+      }
+    }
+
+    /* ResidentAtoms::reordered: the kept end state of the last step (d_ax, d_av, d_atlast,
+       d_arad, d_amass, d_atype in the order of the IDs in d_oid) put into the order of the IDs
+       the ranks wrote into d_aid.  False where it cannot (no kept state, another atom count
+       or ID width, an ID not among the old ones); then the buffers may hold anything. */
+    bool CudaResidentStep::reorder(const ResidentAtoms &a)
+    {
+      if (oid_n != n || oid_bytes != a.id_bytes) return false;
+      const size_t n3 = (size_t) 3 * n * sizeof(double), n1 = (size_t) n * sizeof(double);
+      d_most.reserve(2 * sizeof(unsigned long long), "cudaMalloc(reorder)");
+      host_most.reserve(2 * sizeof(unsigned long long), "cudaMallocHost(reorder)");
+      cuda_check(cudaMemsetAsync(d_most.ptr, 0, 2 * sizeof(unsigned long long), stream),
+                 "cudaMemset");
+      unsigned long long *most = d_most.as<unsigned long long>();
+      if (a.id_bytes == 8)
+        id_max_kernel<long long><<<nblocks(n), BLOCK, 0, stream>>>(d_oid.as<long long>(), n, most);
+      else
+        id_max_kernel<int><<<nblocks(n), BLOCK, 0, stream>>>(d_oid.as<int>(), n, most);
+      launched("id_max_kernel");
+      fetch(d_most, host_most, sizeof(unsigned long long), "cudaMemcpy(reorder)");
+      wait("cudaMemcpy(reorder)");
+      const long long top = (long long) host_most.as<unsigned long long>()[0];
+      if (top <= 0 || top > (long long) INT_MAX - 2) return false;
+      d_slot.reserve((size_t) (top + 1) * sizeof(int), "cudaMalloc(reorder)");
+      for (DeviceBuffer *b : {&d_rx, &d_rv}) b->reserve(n3 + 8, "cudaMalloc(reorder)");
+      for (DeviceBuffer *b : {&d_rt, &d_rr, &d_rm}) b->reserve(n1 + 8, "cudaMalloc(reorder)");
+      d_rty.reserve((size_t) n * sizeof(int) + 8, "cudaMalloc(reorder)");
+      unsigned long long *missing = most + 1;
+      if (a.id_bytes == 8) {
+        id_slot_kernel<long long><<<nblocks(n), BLOCK, 0, stream>>>(d_oid.as<long long>(), n,
+                                                                    d_slot.as<int>());
+        reorder_kernel<long long><<<nblocks(n), BLOCK, 0, stream>>>(
+            d_aid.as<long long>(), d_oid.as<long long>(), d_slot.as<int>(), top, n,
+            d_ax.as<double>(), d_av.as<double>(), d_atlast.as<double>(), d_arad.as<double>(),
+            d_amass.as<double>(), d_atype.as<int>(), d_rx.as<double>(), d_rv.as<double>(),
+            d_rt.as<double>(), d_rr.as<double>(), d_rm.as<double>(), d_rty.as<int>(), missing);
+      } else {
+        id_slot_kernel<int><<<nblocks(n), BLOCK, 0, stream>>>(d_oid.as<int>(), n,
+                                                              d_slot.as<int>());
+        reorder_kernel<int><<<nblocks(n), BLOCK, 0, stream>>>(
+            d_aid.as<int>(), d_oid.as<int>(), d_slot.as<int>(), top, n, d_ax.as<double>(),
+            d_av.as<double>(), d_atlast.as<double>(), d_arad.as<double>(), d_amass.as<double>(),
+            d_atype.as<int>(), d_rx.as<double>(), d_rv.as<double>(), d_rt.as<double>(),
+            d_rr.as<double>(), d_rm.as<double>(), d_rty.as<int>(), missing);
+      }
+      launched("reorder_kernel");
+      fetch(d_most, host_most, 2 * sizeof(unsigned long long), "cudaMemcpy(reorder)");
+      wait("cudaMemcpy(reorder)");
+      if (host_most.as<unsigned long long>()[1] != 0) return false;
+      const struct {
+        DeviceBuffer &to, &from;
+        size_t bytes;
+      } back[6] = {{d_ax, d_rx, n3},     {d_av, d_rv, n3},     {d_atlast, d_rt, n1},
+                   {d_arad, d_rr, n1},   {d_amass, d_rm, n1},  {d_atype, d_rty, (size_t) n * sizeof(int)}};
+      for (const auto &b : back)
+        cuda_check(cudaMemcpyAsync(b.to.ptr, b.from.ptr, b.bytes, cudaMemcpyDeviceToDevice, stream),
+                   "cudaMemcpy(reorder)");
+      return true;
     }
 
   }    // namespace
