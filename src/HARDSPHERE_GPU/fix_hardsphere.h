@@ -330,6 +330,7 @@ class FixHardSphere : public Fix {
   void drop_ahead();
   void forget_ahead();
   void spoil_ahead();
+  void start_ahead(bool here, double t_start);
   void run_ahead_gathered();
   int take_ahead_gathered(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   // gpu yes on several ranks with gpu/gather yes: each step's atoms (of the group) gathered on
@@ -439,6 +440,7 @@ class FixHardSphere : public Fix {
   bool results_shared(int nlocal, bool whole, double &moved);
   bool state_back(const GatheredSend &s) const;
   bool results_whole(int nlocal);
+  bool results_read(int ok);
   HSGPU::Collide::ResidentBox resident_box() const;
   HSGPU::Collide::ResidentAtoms resident_atoms(const Source &s, bool same) const;
   void count_resident(const HSGPU::Collide::ResidentReport &report);

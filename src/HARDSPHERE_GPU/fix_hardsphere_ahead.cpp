@@ -99,14 +99,23 @@ void FixHardSphere::run_ahead()
   next.atoms.zero_forces = forces_none && forces_checked;
   next.atoms.motion = m;
   next.atoms.defer_writes = true;
-  next.box = resident_box();
-  next.params = step_params();
-  next.tally = HSGPU::Collide::Tally();
-  next.report = HSGPU::Collide::ResidentReport();
-  if (!ahead) ahead.reset(new StepAhead());
-  ahead->start([this] {
-    resident->run_atoms(next.atoms, next.box, next.params, wsettings, next.tally, next.report);
-  });
+  start_ahead(true, t_start);
+}
+
+/* The device step of next.atoms started on this rank's thread (where `here`), and the step
+   counted as run ahead, its time since t_start as the fix's. */
+void FixHardSphere::start_ahead(bool here, double t_start)
+{
+  if (here) {
+    next.box = resident_box();
+    next.params = step_params();
+    next.tally = HSGPU::Collide::Tally();
+    next.report = HSGPU::Collide::ResidentReport();
+    if (!ahead) ahead.reset(new StepAhead());
+    ahead->start([this] {
+      resident->run_atoms(next.atoms, next.box, next.params, wsettings, next.tally, next.report);
+    });
+  }
   run_sum.ahead++;
   const double spent = MPI_Wtime() - t_start;
   t_step += spent;
@@ -260,19 +269,8 @@ void FixHardSphere::run_ahead_gathered()
     next.atoms.motion.fused = motion_way == MOTION_FUSED;
     next.atoms.motion.move =
         gathered_motion(next.send.xv_kept && neighbor->ncalls != gath.builds);
-    next.box = resident_box();
-    next.params = step_params();
-    next.tally = HSGPU::Collide::Tally();
-    next.report = HSGPU::Collide::ResidentReport();
-    if (!ahead) ahead.reset(new StepAhead());
-    ahead->start([this] {
-      resident->run_atoms(next.atoms, next.box, next.params, wsettings, next.tally, next.report);
-    });
   }
-  run_sum.ahead++;
-  const double spent = MPI_Wtime() - t_start;
-  t_step += spent;
-  run_sum.t_step += spent;
+  start_ahead(comm->me == 0, t_start);
 }
 
 /* post_integrate() of the gathered step run ahead (on every rank): its result where nothing

@@ -521,14 +521,9 @@ bool FixHardSphere::results_shared(int nlocal, bool whole, double &moved)
       gath.why = e.what();
     }
   }
-  // Also: every rank has read before rank 0's device moves on.
-  const double t_a = MPI_Wtime();
-  gath.t_part[2] += t_a - t_r;
-  int all = 0;
-  MPI_Allreduce(&ok, &all, 1, MPI_INT, MPI_MIN, world);
-  count_collective(sizeof(int));
+  gath.t_part[2] += MPI_Wtime() - t_r;
+  const bool all = results_read(ok);
   const double t_w = MPI_Wtime();
-  gath.t_part[3] += t_w - t_a;
   if (!all) {
     gath.ipc_results = false;
     int who = ok ? np : me, first_bad = 0;
@@ -559,6 +554,18 @@ bool FixHardSphere::results_shared(int nlocal, bool whole, double &moved)
   }
   gath.t_part[4] += MPI_Wtime() - t_w;
   return true;
+}
+
+/* Whether every rank read its results (ok on this one): one reduction, also the point after
+   which rank 0's device may move on; its time counted as the reduction after the reads. */
+bool FixHardSphere::results_read(int ok)
+{
+  const double t0 = MPI_Wtime();
+  int all = 0;
+  MPI_Allreduce(&ok, &all, 1, MPI_INT, MPI_MIN, world);
+  count_collective(sizeof(int));
+  gath.t_part[3] += MPI_Wtime() - t0;
+  return all != 0;
 }
 
 /* Whether the atoms' end state goes back whole (results_whole()): group all, shared buffers
@@ -598,14 +605,8 @@ bool FixHardSphere::results_whole(int nlocal)
     ok = 0;
     gath.why = e.what();
   }
-  // Also: every rank has read before rank 0's device moves on.
-  const double t1 = MPI_Wtime();
-  gath.t_part[2] += t1 - t0;
-  int all = 0;
-  MPI_Allreduce(&ok, &all, 1, MPI_INT, MPI_MIN, world);
-  count_collective(sizeof(int));
-  gath.t_part[3] += MPI_Wtime() - t1;
-  if (all) return true;
+  gath.t_part[2] += MPI_Wtime() - t0;
+  if (results_read(ok)) return true;
   gath.ipc_whole = false;
   if (!ok && me != 0)
     utils::logmesg(lmp,
