@@ -382,8 +382,9 @@ class FixHardSphere : public Fix {
     std::string why;              // why a rank could not
     double t_put = 0.0, t_wait = 0.0;    // this run: seconds copying them, and waiting for all
     // This run, seconds: rank 0's buffer handles to the ranks; its results' handles and counts
-    // to them; reading them; the reduction after; writing them into the atoms' arrays.
-    double t_part[5] = {0.0, 0.0, 0.0, 0.0, 0.0};
+    // to them; reading them; the reduction after; writing them into the atoms' arrays; of the
+    // first, rank 0's own part (its device's handles).
+    double t_part[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
     // With a group other than all: this rank's group atoms (indices here) and their arrays.
     std::vector<int> lidx;
     AtomArrays packed;

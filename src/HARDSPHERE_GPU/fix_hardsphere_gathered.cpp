@@ -66,6 +66,7 @@ bool FixHardSphere::share_inputs(long n, int nlocal, const Source &src, bool sta
       ok = 0;
     }
     hbytes = ok ? (int) h.size() : 0;
+    gath.t_part[5] += MPI_Wtime() - t_h;
   }
   MPI_Bcast(&hbytes, 1, MPI_INT, 0, world);
   if (hbytes > 0) {

@@ -259,25 +259,33 @@ namespace Collide {
                            {&d_atlast, n1}, {&d_arad, n1},   {&d_amass, n1},
                            {&d_atype, (size_t) count * sizeof(int) + 8},
                            {&d_aid, (size_t) count * id_bytes + 8}};
-        cudaIpcMemHandle_t h[NLOCKED + 1];
+        const void *ptr[NLOCKED + 1] = {};
         for (int k = 0; k < NLOCKED; ++k) {
           const void *was = bufs[k].b->ptr;
           bufs[k].b->reserve(bufs[k].bytes, "cudaMalloc(atoms)");
           if (bufs[k].b->ptr != was) kept = ids_kept = false;    // the device copies are gone
-          if (cudaIpcGetMemHandle(&h[k], bufs[k].b->ptr) != cudaSuccess) {
-            (void) cudaGetLastError();
-            return false;
-          }
+          ptr[k] = bufs[k].b->ptr;
         }
         if (spin) {
           d_aomega.reserve(n3, "cudaMalloc(atoms)");
-          if (cudaIpcGetMemHandle(&h[NLOCKED], d_aomega.ptr) != cudaSuccess) {
+          ptr[NLOCKED] = d_aomega.ptr;
+        }
+        // The same buffers as last time: the same handles (none exported again).
+        if (!shared_handles.empty() && std::equal(ptr, ptr + NLOCKED + 1, shared_ptr)) {
+          handles = shared_handles;
+          return true;
+        }
+        shared_handles.clear();
+        cudaIpcMemHandle_t h[NLOCKED + 1];
+        const int nh = spin ? NLOCKED + 1 : NLOCKED;
+        for (int k = 0; k < nh; ++k)
+          if (cudaIpcGetMemHandle(&h[k], const_cast<void *>(ptr[k])) != cudaSuccess) {
             (void) cudaGetLastError();
             return false;
           }
-        }
-        const int nh = spin ? NLOCKED + 1 : NLOCKED;
         handles.assign(reinterpret_cast<const char *>(h), reinterpret_cast<const char *>(h + nh));
+        shared_handles = handles;
+        std::copy(ptr, ptr + NLOCKED + 1, shared_ptr);
         return true;
       }
 
@@ -381,6 +389,9 @@ namespace Collide {
       DeviceBuffer d_rspin;    // run_atoms(): the results' angular velocities (rough spheres)
       // The last run_atoms() left its end state in d_ax, d_av and d_atlast for get_atoms().
       bool state_kept = false;
+      // share_inputs(): the buffers whose handles it gave last, and those handles.
+      const void *shared_ptr[NLOCKED + 1] = {};
+      std::vector<char> shared_handles;
       // ResidentAtoms::reordered: the end state's IDs in its order (ids_kept: d_oid holds the
       // last done step's oid_n IDs, and d_ax, ... its end state), the IDs' slots, scratch.
       bool ids_kept = false;
