@@ -300,7 +300,7 @@ class FixHardSphere : public Fix {
     const double *x = nullptr, *v = nullptr;    // LAMMPS's arrays then
     std::vector<double> x0, v0, f0;             // f0 empty: no forces
   } mcheck;
-  HSGPU::Collide::StepMotion gathered_motion(bool wrap) const;
+  HSGPU::Collide::StepMotion gathered_motion(bool wrap, bool half = false) const;
   void motion_snapshot();
   void motion_check_gathered();
   std::unique_ptr<StepAhead> ahead;

@@ -205,8 +205,9 @@ void FixHardSphere::spoil_ahead()
 
    With gpu/gather yes rank 0's device steps every rank's atoms, which it gets from them each
    step (fix_hardsphere_gathered.cpp).  Where the fixes allow gpu/keep (motion_known: group
-   all, smooth spheres, fix nve or nve/sphere of all and only harmless fixes besides) and this
-   fix's post_force() comes last, every rank sends its x, v and f at post_force() of step N
+   all, smooth spheres, fix nve or nve/sphere of all and only harmless fixes besides), every
+   rank sends its x, v and f at post_force() of step N (where this fix's comes last, else at
+   end_of_step(), after fix nve's first half kick)
    (with tlast, radius, ... where atoms moved in the arrays: LAMMPS exchanged and sorted them
    just before), and rank 0's device moves x and v as fix nve will (final_integrate() of N,
    initial_integrate() of N+1: MotionUse::advance) and runs step N+1 on rank 0's host thread
@@ -221,12 +222,13 @@ void FixHardSphere::spoil_ahead()
 /* The integrator's move from post_force() of one step to post_integrate() of the next; with
    wrap also Domain::pbc()'s wrap before it (x and v kept on the device from the end of the
    step before, which LAMMPS reneighbored since). */
-HSGPU::Collide::StepMotion FixHardSphere::gathered_motion(bool wrap) const
+HSGPU::Collide::StepMotion FixHardSphere::gathered_motion(bool wrap, bool half) const
 {
   HSGPU::Collide::StepMotion m;
   m.dtf = 0.5 * update->dt * force->ftm2v;    // as fix nve's init()
   m.dtv = update->dt;
   m.wrap = wrap;
+  m.kicks = half ? 1 : 2;
   for (int d = 0; d < 3; ++d) {
     m.lo[d] = domain->boxlo[d];
     m.hi[d] = domain->boxhi[d];
@@ -238,7 +240,7 @@ HSGPU::Collide::StepMotion FixHardSphere::gathered_motion(bool wrap) const
 
 void FixHardSphere::run_ahead_gathered()
 {
-  if (!gather_step || !motion_known || !ahead_at_post_force || igroup != 0) return;
+  if (!gather_step || !motion_known || igroup != 0) return;
   if (update->ntimestep >= update->laststep) return;    // no next step in this run
   if ((forces_none && !forces_checked) || motion_way == MOTION_OFF) return;
   if (motion_way == MOTION_UNKNOWN || motion_unchecked >= MOTION_AUDIT) {
@@ -267,8 +269,11 @@ void FixHardSphere::run_ahead_gathered()
     next.atoms = gathered_atoms(next.send);
     next.atoms.motion.use = HSGPU::Collide::MotionUse::advance;
     next.atoms.motion.fused = motion_way == MOTION_FUSED;
+    // From end_of_step() (another fix's post_force() comes after this one's) the x and v sent
+    // have had fix nve's first half kick already; those kept on the device have not.
     next.atoms.motion.move =
-        gathered_motion(next.send.xv_kept && neighbor->ncalls != gath.builds);
+        gathered_motion(next.send.xv_kept && neighbor->ncalls != gath.builds,
+                        !ahead_at_post_force && !next.send.xv_kept);
   }
   start_ahead(comm->me == 0, t_start);
 }

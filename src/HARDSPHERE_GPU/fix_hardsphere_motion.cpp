@@ -217,7 +217,8 @@ void FixHardSphere::motion_check_gathered()
   if (valid && src.n > 0)
     HSGPU::Collide::count_motion_misses(mcheck.x0.data(), mcheck.v0.data(),
                                         mcheck.f0.empty() ? nullptr : mcheck.f0.data(),
-                                        atom->rmass, src.x, src.v, src.n, gathered_motion(false),
+                                        atom->rmass, src.x, src.v, src.n,
+                                        gathered_motion(false, !ahead_at_post_force),
                                         miss);
   miss[4] = valid ? 0 : 1;
   long long sum[5] = {0, 0, 0, 0, 0};
@@ -240,17 +241,16 @@ std::string FixHardSphere::motion_summary() const
         : motion_way == MOTION_FUSED             ? "fused multiply-adds as fix nve's"
         : motion_way == MOTION_OFF               ? "not matching fix nve's"
                                                  : "rounding not found";
-    if (!ahead_at_post_force)
-      return "the gathered step is not run ahead: a fix's post_force() comes after this one's";
     return fmt::format("{} gathered steps run ahead on rank 0's device during LAMMPS's "
                        "integration ({} of them dropped), from every rank's x, v and f at the "
-                       "step before's post_force (on {} of them x and v kept there from the "
+                       "step before's {} (on {} of them x and v kept there from the "
                        "step before, on {} of those found there by the atoms' IDs), moved there "
                        "as fix nve moves them ({}; checked against LAMMPS's on {} steps); {:.4g} "
                        "ms per step run ahead waiting for it and for the ranks to agree to take "
                        "it",
-                       run_sum.ahead, run_sum.dropped, run_sum.xv_kept, run_sum.reordered, way,
-                       run_sum.checked,
+                       run_sum.ahead, run_sum.dropped,
+                       ahead_at_post_force ? "post_force" : "end_of_step", run_sum.xv_kept,
+                       run_sum.reordered, way, run_sum.checked,
                        run_sum.ahead ? 1e3 * run_sum.t_ahead_wait / run_sum.ahead : 0.0);
   }
   const char *way = motion_way == MOTION_PLAIN ? "rounded as fix nve rounds them, "

@@ -49,6 +49,9 @@ namespace Collide {
     double dtf = 0.0;     // the integrator's dt ftm2v / 2
     double dtv = 0.0;     // and dt
     bool wrap = false;    // a reneighboring in between: Domain::pbc() first
+    // Half kicks: 2 from one step's post_integrate() (or post_force()) to the next's; 1 from
+    // end_of_step(), after final_integrate()'s (FixHardSphere's gathered step run ahead).
+    int kicks = 2;
     double lo[3] = {0.0, 0.0, 0.0}, hi[3] = {0.0, 0.0, 0.0}, prd[3] = {0.0, 0.0, 0.0};
     int periodic[3] = {0, 0, 0};
   };
@@ -67,13 +70,15 @@ namespace Collide {
   }
 
   /// One atom from one step's post_integrate() to the next's: x, v (3 each) as LAMMPS's
-  /// integrator leaves them, with forces f and mass m; x only where move_x.
+  /// integrator leaves them, with forces f and mass m; x only where move_x; with kicks = 1
+  /// only the second half kick (from the first step's end_of_step()).
   HSGPU_HD void verlet_between_steps(double *x, double *v, const double *f, double m,
-                                     double dtf, double dtv, bool fused, bool move_x)
+                                     double dtf, double dtv, bool fused, bool move_x,
+                                     int kicks = 2)
   {
     const double dtfm = dtf / m;
     for (int d = 0; d < 3; ++d) {
-      v[d] = verlet_madd(dtfm, f[d], v[d], fused);
+      if (kicks > 1) v[d] = verlet_madd(dtfm, f[d], v[d], fused);
       v[d] = verlet_madd(dtfm, f[d], v[d], fused);
       if (move_x) x[d] = verlet_madd(dtv, v[d], x[d], fused);
     }
@@ -84,7 +89,7 @@ namespace Collide {
                                    const StepMotion &s, bool fused)
   {
     if (s.wrap) pbc_wrap(x, s);
-    verlet_between_steps(x, v, f, m, s.dtf, s.dtv, fused, true);
+    verlet_between_steps(x, v, f, m, s.dtf, s.dtv, fused, true, s.kicks);
   }
 
   /// A check of the integrator's rounding (host only): atoms [0, n) whose x0, v0 (3 each, as
