@@ -236,11 +236,13 @@ std::string FixHardSphere::motion_summary() const
 {
   if (!motion_known)
     return fmt::format("x and v copied to the device every step ({})", motion_why);
+  // What the checks found of the integrator's rounding ("" while unknown).
+  const std::string found = motion_way == MOTION_PLAIN ? "rounded as fix nve rounds them"
+      : motion_way == MOTION_FUSED                     ? "fused multiply-adds as fix nve's"
+      : motion_way == MOTION_OFF                       ? "not matching fix nve's"
+                                                       : "";
   if (comm->nprocs > 1) {
-    const char *way = motion_way == MOTION_PLAIN ? "rounded as fix nve rounds them"
-        : motion_way == MOTION_FUSED             ? "fused multiply-adds as fix nve's"
-        : motion_way == MOTION_OFF               ? "not matching fix nve's"
-                                                 : "rounding not found";
+    const std::string way = found.empty() ? "rounding not found" : found;
     return fmt::format("{} gathered steps run ahead on rank 0's device during LAMMPS's "
                        "integration ({} of them dropped), from every rank's x, v and f at the "
                        "step before's {} (on {} of them x and v kept there from the "
@@ -253,10 +255,7 @@ std::string FixHardSphere::motion_summary() const
                        run_sum.reordered, way, run_sum.checked,
                        run_sum.ahead ? 1e3 * run_sum.t_ahead_wait / run_sum.ahead : 0.0);
   }
-  const char *way = motion_way == MOTION_PLAIN ? "rounded as fix nve rounds them, "
-      : motion_way == MOTION_FUSED             ? "fused multiply-adds as fix nve's, "
-      : motion_way == MOTION_OFF               ? "not matching fix nve's, "
-                                               : "";
+  const std::string way = found.empty() ? found : found + ", ";
   return fmt::format("x and v moved on the device on {} steps ({}checked against LAMMPS's on {}); "
                      "{} steps run ahead on the device during LAMMPS's integration ({} of them "
                      "dropped), each from the step before's {}; {:.4g} ms per step run ahead "
