@@ -385,6 +385,7 @@ class FixHardSphere : public Fix {
     // to them; reading them; the reduction after; writing them into the atoms' arrays; of the
     // first, rank 0's own part (its device's handles).
     double t_part[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+    double t_handles_most = 0.0;    // the longest of the first in one step
     // With a group other than all: this rank's group atoms (indices here) and their arrays.
     std::vector<int> lidx;
     AtomArrays packed;

@@ -79,6 +79,7 @@ bool FixHardSphere::share_inputs(long n, int nlocal, const Source &src, bool sta
   const long first = gath.displ[me];
   const double t0 = MPI_Wtime();
   gath.t_part[0] += t0 - t_h;
+  gath.t_handles_most = std::max(gath.t_handles_most, t0 - t_h);
   if (ok) {
     try {
       const int idb = (int) sizeof(tagint);

@@ -1526,14 +1526,15 @@ void FixHardSphere::post_run()
   // The gathered step's copies of x, v, f to rank 0's device: the slowest rank's time copying,
   // and the longest wait of a rank for the others.
   // And the parts of the results' way back, least and most of any rank.
-  double tputs[13] = {gath.t_put, gath.t_wait}, tmax[13] = {0.0};
+  double tputs[14] = {gath.t_put, gath.t_wait}, tmax[14] = {0.0};
   for (int k = 0; k < 5; ++k) {
     tputs[2 + k] = gath.t_part[k];
     tputs[7 + k] = -gath.t_part[k];
   }
   tputs[12] = gath.t_part[5];
-  if (gather_step) MPI_Reduce(tputs, tmax, 13, MPI_DOUBLE, MPI_MAX, 0, world);
-  gath.t_put = gath.t_wait = 0.0;
+  tputs[13] = gath.t_handles_most;
+  if (gather_step) MPI_Reduce(tputs, tmax, 14, MPI_DOUBLE, MPI_MAX, 0, world);
+  gath.t_put = gath.t_wait = gath.t_handles_most = 0.0;
   for (double &t : gath.t_part) t = 0.0;
   if (comm->me != 0) return;
   auto part = [&](int k) {
@@ -1544,10 +1545,11 @@ void FixHardSphere::post_run()
                    "Fix hardsphere: x, v and f copied by each rank to rank 0's device: {:.4g} s "
                    "copying and {:.4g} s waiting for the other ranks (the most of any rank); "
                    "ms per step (least to most of any rank): rank 0's buffers' handles {} (of "
-                   "that rank 0's own {:.3g}), its results' handles and counts {}, reading them "
-                   "{}, the reduction after {}, writing them into the atoms' arrays {}\n",
-                   tmax[0], tmax[1], part(0), 1e3 * tmax[12] / n, part(1), part(2), part(3),
-                   part(4));
+                   "that rank 0's own {:.3g}; the most in one step {:.3g}), its results' "
+                   "handles and counts {}, reading them {}, the reduction after {}, writing them "
+                   "into the atoms' arrays {}\n",
+                   tmax[0], tmax[1], part(0), 1e3 * tmax[12] / n, 1e3 * tmax[13], part(1),
+                   part(2), part(3), part(4));
   utils::logmesg(lmp,
                  "Fix hardsphere ({} order, {} backend): {} steps, {:.6g} collisions and {:.6g} "
                  "events per "
