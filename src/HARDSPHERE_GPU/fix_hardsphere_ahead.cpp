@@ -310,7 +310,6 @@ int FixHardSphere::take_ahead_gathered(HSGPU::Collide::Tally &mine, HSGPU::Colli
     return -1;
   }
   resident_same = false;
-  run_sum.moved++;
   motion_unchecked++;
   mine = HSGPU::Collide::Tally();
   GatheredResult r = {};

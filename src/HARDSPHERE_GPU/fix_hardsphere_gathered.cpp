@@ -140,6 +140,9 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
   // gpu/keep: the check of the integrator's rounding set up at the last post_force(), and the
   // step run ahead from there (fix_hardsphere_ahead.cpp).
   if (mcheck.pending) motion_check_gathered();
+  // Rank 0's device holds this step's end state again only where it does the step
+  // (gathered_finish(); a step on the host, with per-atom virial, moves the atoms without it).
+  gath.state_kept = false;
   if (next.pending) {
     const int taken = take_ahead_gathered(mine, all);
     if (taken >= 0) return taken;
@@ -148,9 +151,6 @@ int FixHardSphere::step_gathered(Tally &mine, Tally &all)
   // group never: its atoms are packed anew every step).
   const bool unchanged = igroup == 0 && resident_same && !sizes_vary;
   resident_same = false;
-  // Rank 0's device holds this step's end state again only where it does the step (a step
-  // on the host, with per-atom virial, moves the atoms without it).
-  gath.state_kept = false;
   if (!resident_usable()) return 0;
   GatheredSend s;
   gathered_send(s, unchanged);
@@ -240,8 +240,9 @@ void FixHardSphere::gathered_send(GatheredSend &s, bool unchanged, bool keep_xv)
   // Where atoms moved between ranks or in their arrays but none arrived or left, the ranks
   // send their atoms' IDs instead, and the device finds each atom's kept state by its ID
   // (ResidentAtoms::reordered; where an ID is new to it, the step is not taken).
-  const bool reordered = keep_xv && !same && gath.state_kept && n == gath.n_kept &&
-      igroup == 0 && !sizes_vary && !friction_on;
+  // (gath.state_kept: the last step was done on the device with group all and smooth spheres,
+  // state_back().)
+  const bool reordered = keep_xv && !same && gath.state_kept && n == gath.n_kept && !sizes_vary;
   const bool xv_kept = keep_xv && (same || reordered) && gath.state_kept;
   const bool shared = share_inputs(n, nlocal, src, !same, no_forces, !xv_kept, reordered);
   s.xv_kept = xv_kept && shared;
@@ -353,7 +354,6 @@ int FixHardSphere::gathered_finish(const GatheredSend &s, GatheredResult r, Tall
   // The gathers and scatters as one collective, with the bytes this rank received.
   count_collective(moved);
   count_resident(report);
-  gath.state_kept = false;
   if (report.outcome != HSGPU::Collide::ResidentOutcome::done) return 0;
   // Counts for every rank; the virial and energy of the step stay with rank 0's `mine` (LAMMPS
   // sums the fix's virial over the ranks).

@@ -1494,9 +1494,9 @@ namespace Collide {
       const bool ids_were = ids_kept;
       ids_kept = false;
       if (a.reordered && !(ids_were && reorder(a))) {
-        // An ID the last step did not have (or no kept state): nothing done, nothing kept.
+        // An ID the last step did not have (or no kept state): nothing done, nothing kept
+        // (kept, state_kept and ids_kept are all false by now).
         report.motion = MotionUse::copy;
-        kept = false;
         cuda_check(cudaStreamSynchronize(stream), "resident step");
         return;
       }
@@ -1612,7 +1612,6 @@ namespace Collide {
       motion_done(a, keep_motion && own);
       state_kept = keep_motion && a.results;
       // The end state's IDs, for the next step's atoms found by ID.
-      ids_kept = false;
       if (state_kept && a.inputs_shared) {
         const size_t nid = (size_t) n * a.id_bytes;
         d_oid.reserve(nid + 8, "cudaMalloc(atom IDs)");
@@ -1628,7 +1627,9 @@ namespace Collide {
     /* ResidentAtoms::reordered: the kept end state of the last step (d_ax, d_av, d_atlast,
        d_arad, d_amass, d_atype in the order of the IDs in d_oid) put into the order of the IDs
        the ranks wrote into d_aid.  False where it cannot (no kept state, another atom count
-       or ID width, an ID not among the old ones); then the buffers may hold anything. */
+       or ID width, an ID not among the old ones); then the buffers may hold anything.  The
+       state is gathered into scratch and copied back, not traded: the other ranks hold IPC
+       handles to these buffers, which would have to be opened again. */
     bool CudaResidentStep::reorder(const ResidentAtoms &a)
     {
       if (oid_n != n || oid_bytes != a.id_bytes) return false;
