@@ -578,6 +578,14 @@ void FixHardSphere::init()
   // Tuning aid: HSGPU_SPANNING_WIDE=1, every boundary atom to every neighbouring rank of the
   // spanning groups at a gather (WindowSettings::gather_wide; no result bit depends on it).
   wsettings.gather_wide = std::getenv("HSGPU_SPANNING_WIDE") != nullptr;
+  // Tuning aid: HSGPU_EDGE_FACTOR and HSGPU_EDGE_HOPS set the window bounds of the atoms next to
+  // another rank's (WindowSettings::edge_factor, edge_hops; no result bit depends on them).
+  if (const char *e = std::getenv("HSGPU_EDGE_FACTOR"))
+    wsettings.edge_factor = utils::numeric(FLERR, e, false, lmp);
+  if (const char *e = std::getenv("HSGPU_EDGE_HOPS"))
+    wsettings.edge_hops = utils::inumeric(FLERR, e, false, lmp);
+  if (wsettings.edge_factor <= 0.0 || wsettings.edge_hops < 0)
+    error->all(FLERR, "Fix hardsphere: HSGPU_EDGE_FACTOR must be > 0 and HSGPU_EDGE_HOPS >= 0");
   if (nwindows_user == 1) {
     // One window per step: nothing is split, so it joins every candidate pair (its groups are
     // the connected components of the step's candidates), and where bounds are used (the

@@ -849,6 +849,33 @@ TEST(FixHardSphereMPI, SpanningGroupsGatheredFromTheNeighbouringRanks)
   compare_neighbour_gather("rough", 300);
 }
 
+// An environment variable set (value given) or unset (nullptr) for a scope, as it was after.
+class ScopedEnv {
+ public:
+  ScopedEnv(const char *name, const char *value) : name(name)
+  {
+    const char *was = std::getenv(name);
+    had = was != nullptr;
+    if (had) kept = was;
+    if (value)
+      setenv(name, value, 1);
+    else
+      unsetenv(name);
+  }
+  ~ScopedEnv()
+  {
+    if (had)
+      setenv(name, kept.c_str(), 1);
+    else
+      unsetenv(name);
+  }
+
+ private:
+  const char *name;
+  bool had = false;
+  std::string kept;
+};
+
 // HSGPU_SPANNING_WIDE=1: every boundary atom goes to every rank of the spanning groups' ghosts
 // at a gather, so no round passes entries on; the same bits as the gather that passes them on.
 TEST(FixHardSphereMPI, WideGatherNeedsNoRoundsPassingEntriesOn)
@@ -857,19 +884,16 @@ TEST(FixHardSphereMPI, WideGatherNeedsNoRoundsPassingEntriesOn)
   MPI_Comm_rank(MPI_COMM_WORLD, &me);
   MPI_Comm_size(MPI_COMM_WORLD, &np);
   if (np < 3) GTEST_SKIP() << "a gather to the neighbouring ranks takes three ranks or more";
-  const char *was = std::getenv("HSGPU_SPANNING_WIDE");
-  const std::string kept = was ? was : "";
   const std::string tag = "_np" + std::to_string(np) + ".log";
-  unsetenv("HSGPU_SPANNING_WIDE");
-  const Spanning narrow =
-      run_dense(MPI_COMM_WORLD, "fluid", "parallel", 100, "2.5", "gather", "hs_narrow" + tag);
-  setenv("HSGPU_SPANNING_WIDE", "1", 1);
-  const Spanning wide =
-      run_dense(MPI_COMM_WORLD, "fluid", "parallel", 100, "2.5", "gather", "hs_wide" + tag);
-  if (was)
-    setenv("HSGPU_SPANNING_WIDE", kept.c_str(), 1);
-  else
-    unsetenv("HSGPU_SPANNING_WIDE");
+  Spanning narrow, wide;
+  {
+    ScopedEnv off("HSGPU_SPANNING_WIDE", nullptr);
+    narrow = run_dense(MPI_COMM_WORLD, "fluid", "parallel", 100, "2.5", "gather", "hs_narrow" + tag);
+  }
+  {
+    ScopedEnv on("HSGPU_SPANNING_WIDE", "1");
+    wide = run_dense(MPI_COMM_WORLD, "fluid", "parallel", 100, "2.5", "gather", "hs_wide" + tag);
+  }
   EXPECT_EQ(max_abs_diff(wide.x, narrow.x), 0.0);
   EXPECT_EQ(max_abs_diff(wide.v, narrow.v), 0.0);
   EXPECT_EQ(wide.collisions, narrow.collisions);
@@ -890,6 +914,40 @@ TEST(FixHardSphereMPI, WideGatherNeedsNoRoundsPassingEntriesOn)
                 "HSGPU_SPANNING_WIDE (%.3g); the same %.0f collisions\n",
                 np, rn, rw, wide.collisions);
   }
+  MPI_Barrier(MPI_COMM_WORLD);
+}
+
+// The window bounds of the atoms next to another rank's on three ranks or more
+// (WindowSettings::edge_factor, by default half what they would be for those atoms and their
+// candidate partners): fewer atoms in groups that span ranks than with the same bounds
+// everywhere (HSGPU_EDGE_FACTOR=1), and the same bits.
+TEST(FixHardSphereMPI, SmallerBoundsAtTheRanksEdgesKeepTheBits)
+{
+  int me = 0, np = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  if (np < 3) GTEST_SKIP() << "the bounds at the ranks' edges are for three ranks or more";
+  Spanning fixed, edge;
+  {
+    ScopedEnv k("HSGPU_EDGE_FACTOR", "1");
+    ScopedEnv h("HSGPU_EDGE_HOPS", "0");
+    fixed = run_dense(MPI_COMM_WORLD, "fluid", "parallel", 100, "2.5", "gather");
+  }
+  {
+    ScopedEnv k("HSGPU_EDGE_FACTOR", nullptr);
+    ScopedEnv h("HSGPU_EDGE_HOPS", nullptr);
+    edge = run_dense(MPI_COMM_WORLD, "fluid", "parallel", 100, "2.5", "gather");
+  }
+  EXPECT_EQ(max_abs_diff(edge.x, fixed.x), 0.0);
+  EXPECT_EQ(max_abs_diff(edge.v, fixed.v), 0.0);
+  EXPECT_EQ(edge.collisions, fixed.collisions);
+  EXPECT_GT(fixed.boundary, 20.0) << "atoms per step in spanning groups, the same bounds";
+  EXPECT_LT(edge.boundary, 0.9 * fixed.boundary) << "atoms per step in spanning groups";
+  if (me == 0)
+    std::printf("[ MPI      ] %d ranks, fluid, 100 steps: %.4g atoms per step in spanning groups "
+                "(%.4g with the same bounds everywhere), %.3g gathers per step (%.3g); the same "
+                "%.0f collisions\n",
+                np, edge.boundary, fixed.boundary, edge.gathers, fixed.gathers, edge.collisions);
   MPI_Barrier(MPI_COMM_WORLD);
 }
 

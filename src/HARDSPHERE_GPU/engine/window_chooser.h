@@ -36,6 +36,17 @@ namespace Collide {
     // foreign node of this rank's boundary groups, not only to those of its own group's: more
     // bytes, but a group over three or more ranks then needs no rounds passing entries on.
     bool gather_wide = false;
+    // On three ranks or more (spanning gather, gathers to the neighbouring ranks, bounds in
+    // use): the bound of the bodies next to another rank's atoms is edge_factor x what it
+    // would be (k and f alike): the bodies with a candidate partner owned by another rank and,
+    // edge_hops candidate pairs further, the bodies reached from them.  Smaller bounds there
+    // join fewer pairs across the ranks' boundaries up front, so fewer atoms end in groups
+    // that span ranks (each gathered, resolved by one rank and sent back: many times the cost
+    // of a local group); the pairs they miss are joined by the window's repairs.  (On two
+    // ranks, where every gather is from both, the extra gathers cost more than they save.)
+    // 1: the same bounds everywhere.  No result bit depends on it.
+    double edge_factor = 0.5;
+    int edge_hops = 1;
   };
 
   /// Relative margin on contact distances for round-off in the windows' join and check tests,

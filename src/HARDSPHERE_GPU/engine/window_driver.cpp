@@ -221,7 +221,8 @@ namespace Collide {
       drift_position(bd, t0, bd.w0);
       bd.wexc2 = 0.0;
       const double speed = std::sqrt(Contact::dot3(bd.v, bd.v));
-      rate[b] = std::max(s.bound_factor * speed, speed_floor);
+      const double k = (b < (int) near_edge.size() && near_edge[b]) ? s.edge_factor : 1.0;
+      rate[b] = k * std::max(s.bound_factor * speed, speed_floor);
     }
     egap.resize(edges.size());
     emargin.resize(edges.size());
@@ -1413,6 +1414,21 @@ namespace Collide {
     // lower ID first.
     // Without foreign_pairs (or on one rank) there is no view: every window as before it.
     const bool use_view = ex.nranks() > 1 && foreign_pairs != nullptr;
+    // The bodies next to another rank's atoms (WindowSettings::edge_factor): those with a
+    // candidate partner owned by another rank, and edge_hops candidate pairs further.  On three
+    // ranks or more, where the gathers go to the neighbouring ranks; not over the view, whose
+    // foreign nodes' bounds each rank forms itself.
+    near_edge.clear();
+    if (ex.nranks() > 2 && !use_view && s.edge_factor != 1.0 && !(s.join_all && s.nwindows == 1)) {
+      near_edge.assign(nb, 0);
+      for (const ForeignEdge &fe : fedges) near_edge[fe.body] = 1;
+      for (int h = 0; h < s.edge_hops; ++h) {
+        near_next.assign(near_edge.begin(), near_edge.end());
+        for (const Edge &e : edges)
+          if (near_edge[e.i] || near_edge[e.j]) near_next[e.i] = near_next[e.j] = 1;
+        near_edge.swap(near_next);
+      }
+    }
     nlocal_bodies = nb;
     xedges.clear();
     if (use_view) xedges.assign(edges.begin(), edges.end());

@@ -211,6 +211,7 @@ namespace Collide {
 
    private:
     WindowChooser chooser;
+    std::vector<char> near_edge, near_next;    // local body next to another rank's atoms
     double speed_floor = 0.0;    // f vmax of this step
     // per window
     std::vector<Body> snap;       // the bodies at the window start
