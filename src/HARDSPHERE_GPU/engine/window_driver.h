@@ -14,7 +14,9 @@
       at the step's first window, what events change at the others);
    2. gives every body of the view a bound d = max(k |v|, f vmax) (t1 - t0) on how far its
       drift line will move in the window (k, f: WindowSettings; vmax the fastest drift speed of
-      the step) and joins the candidate pairs whose gap at t0 is within d_i + d_j;
+      the step; on three ranks or more without the view, WindowSettings::edge_factor times that
+      for the bodies next to another rank's) and joins the candidate pairs whose gap at t0 is
+      within d_i + d_j;
    3. resolves the connected components ("groups") that hold a local body: a group of local
       bodies, or one that spans ranks and whose foreign nodes are all complete, is resolved
       here; every rank that holds a body of such a group sees the same bodies and pairs and
