@@ -443,6 +443,7 @@ class FixHardSphere : public Fix {
   bool state_back(const GatheredSend &s) const;
   bool results_whole(int nlocal);
   bool results_read(int ok);
+  int first_failed(int ok) const;
   HSGPU::Collide::ResidentBox resident_box() const;
   HSGPU::Collide::ResidentAtoms resident_atoms(const Source &s, bool same) const;
   void count_resident(const HSGPU::Collide::ResidentReport &report);

@@ -118,8 +118,7 @@ bool FixHardSphere::share_inputs(long n, int nlocal, const Source &src, bool sta
   gath.t_wait += MPI_Wtime() - t1;
   if (all) return true;
   gath.ipc = false;
-  int who = ok ? comm->nprocs : me, first_bad = 0;
-  MPI_Allreduce(&who, &first_bad, 1, MPI_INT, MPI_MIN, world);
+  const int first_bad = first_failed(ok);
   if (first_bad == me && me != 0)
     utils::logmesg(lmp,
                    "Fix hardsphere: rank {} cannot copy its atoms to rank 0's device ({}); "
@@ -528,9 +527,7 @@ bool FixHardSphere::results_shared(int nlocal, bool whole, double &moved)
   const double t_w = MPI_Wtime();
   if (!all) {
     gath.ipc_results = false;
-    int who = ok ? np : me, first_bad = 0;
-    MPI_Allreduce(&who, &first_bad, 1, MPI_INT, MPI_MIN, world);
-    if (first_bad == me)
+    if (first_failed(ok) == me)
       utils::logmesg(lmp,
                      "Fix hardsphere: rank {} cannot read its results from rank 0's device ({}); "
                      "they come through MPI for the rest of the run\n",
@@ -610,12 +607,21 @@ bool FixHardSphere::results_whole(int nlocal)
   gath.t_part[2] += MPI_Wtime() - t0;
   if (results_read(ok)) return true;
   gath.ipc_whole = false;
-  if (!ok && me != 0)
+  if (first_failed(ok) == me)
     utils::logmesg(lmp,
-                   "Fix hardsphere: rank {} cannot read its atoms from rank 0's device ({}); "
+                   "Fix hardsphere: rank {} cannot read its atoms from rank 0's device{}{}{}; "
                    "the results come as a list for the rest of the run\n",
-                   me, gath.why);
+                   me, gath.why.empty() ? "" : " (", gath.why, gath.why.empty() ? "" : ")");
   return false;
+}
+
+/* Collective, after a reduction found that some rank failed (ok == 0 there): the lowest such
+   rank, the one that says why in the log. */
+int FixHardSphere::first_failed(int ok) const
+{
+  int who = ok ? comm->nprocs : comm->me, first = 0;
+  MPI_Allreduce(&who, &first, 1, MPI_INT, MPI_MIN, world);
+  return first;
 }
 
 /* What this rank sends to the gathered step: with group all LAMMPS's own arrays, else the

@@ -1509,12 +1509,20 @@ void FixHardSphere::post_run()
   // Where a rank's time went, the least and the most of any rank per part, in ms per step:
   // the windows' parts, the search, the spanning groups' parts, and the communication.
   const HSGPU::Collide::DriverTimes &dtm = driver.times;
-  constexpr int NT = 13;
+  // Then the gathered step's (several ranks, gpu/gather yes): the parts of the results' way
+  // back (rank 0's buffer handles to the ranks, its results' handles and counts, reading them,
+  // the reduction after, writing them into the atoms' arrays), rank 0's own part of the first,
+  // its longest single step, and the time copying x, v, f to rank 0's device and waiting for
+  // the other ranks there.
+  constexpr int NT = 22, GPART = 13, GOWN = 18, GMOST = 19, GPUT = 20, GWAIT = 21;
   const double tmine[NT] = {dtm.edges,       dtm.groups,       dtm.local,
                             dtm.spanning,    t_search + r.t_search, dtm.span_pack,
                             dtm.span_gather, dtm.span_resolve, dtm.span_results,
                             dtm.span_join,   r.t_comm,         dtm.gather_messages,
-                            dtm.gather_unpack};
+                            dtm.gather_unpack, gath.t_part[0], gath.t_part[1],
+                            gath.t_part[2],  gath.t_part[3],   gath.t_part[4],
+                            gath.t_part[5],  gath.t_handles_most, gath.t_put,
+                            gath.t_wait};
   double tw[2 * NT], twx[2 * NT] = {0.0};
   for (int k = 0; k < NT; ++k) {
     tw[k] = -tmine[k];    // the least, as minus the most of the negatives
@@ -1523,24 +1531,13 @@ void FixHardSphere::post_run()
   if (comm->nprocs > 1) MPI_Allreduce(tw, twx, 2 * NT, MPI_DOUBLE, MPI_MAX, world);
   auto least = [&](int k) { return -1e3 * twx[k] / n; };
   auto most = [&](int k) { return 1e3 * twx[NT + k] / n; };
-  // The gathered step's copies of x, v, f to rank 0's device: the slowest rank's time copying,
-  // and the longest wait of a rank for the others.
-  // And the parts of the results' way back, least and most of any rank.
-  double tputs[14] = {gath.t_put, gath.t_wait}, tmax[14] = {0.0};
-  for (int k = 0; k < 5; ++k) {
-    tputs[2 + k] = gath.t_part[k];
-    tputs[7 + k] = -gath.t_part[k];
-  }
-  tputs[12] = gath.t_part[5];
-  tputs[13] = gath.t_handles_most;
-  if (gather_step) MPI_Reduce(tputs, tmax, 14, MPI_DOUBLE, MPI_MAX, 0, world);
   gath.t_put = gath.t_wait = gath.t_handles_most = 0.0;
   for (double &t : gath.t_part) t = 0.0;
   if (comm->me != 0) return;
   auto part = [&](int k) {
-    return fmt::format("{:.3g} to {:.3g}", -1e3 * tmax[7 + k] / n, 1e3 * tmax[2 + k] / n);
+    return fmt::format("{:.3g} to {:.3g}", least(GPART + k), most(GPART + k));
   };
-  if (gather_step && tmax[0] > 0.0)
+  if (gather_step && twx[NT + GPUT] > 0.0)
     utils::logmesg(lmp,
                    "Fix hardsphere: x, v and f copied by each rank to rank 0's device: {:.4g} s "
                    "copying and {:.4g} s waiting for the other ranks (the most of any rank); "
@@ -1548,8 +1545,8 @@ void FixHardSphere::post_run()
                    "that rank 0's own {:.3g}; the most in one step {:.3g}), its results' "
                    "handles and counts {}, reading them {}, the reduction after {}, writing them "
                    "into the atoms' arrays {}\n",
-                   tmax[0], tmax[1], part(0), 1e3 * tmax[12] / n, 1e3 * tmax[13], part(1),
-                   part(2), part(3), part(4));
+                   twx[NT + GPUT], twx[NT + GWAIT], part(0), most(GOWN), 1e3 * twx[NT + GMOST],
+                   part(1), part(2), part(3), part(4));
   utils::logmesg(lmp,
                  "Fix hardsphere ({} order, {} backend): {} steps, {:.6g} collisions and {:.6g} "
                  "events per "

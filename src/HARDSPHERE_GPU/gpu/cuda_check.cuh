@@ -230,7 +230,7 @@ namespace GPU {
   /// Copies count atoms' times of last collision, radii, masses (doubles), types (ints) and
   /// IDs (id_bytes each) from the host into atoms [first, first + count) of the device arrays
   /// dst[0 .. 4] on `stream` (pageable: they move only after atoms moved in the arrays), and
-  /// waits.
+  /// waits.  A null source is not copied (the IDs alone: ResidentAtoms::reordered).
   inline void copy_statics_to_device(void *const dst[5], long first, long count,
                                      const double *tlast, const double *radius,
                                      const double *rmass, const int *type, const void *id,
@@ -241,9 +241,10 @@ namespace GPU {
     const size_t per[5] = {sizeof(double), sizeof(double), sizeof(double), sizeof(int),
                            (size_t) id_bytes};
     for (int k = 0; k < 5; ++k)
-      cuda_check(cudaMemcpyAsync(static_cast<char *>(dst[k]) + per[k] * first, src[k],
-                                 per[k] * count, cudaMemcpyDefault, stream),
-                 what);
+      if (src[k])
+        cuda_check(cudaMemcpyAsync(static_cast<char *>(dst[k]) + per[k] * first, src[k],
+                                   per[k] * count, cudaMemcpyDefault, stream),
+                   what);
     cuda_check(cudaStreamSynchronize(stream), what);
   }
 

@@ -145,10 +145,8 @@ namespace GPU {
     if (count <= 0) return;
     if (!impl->buf[7]) throw Error("PeerInputs: no buffers open");
     cuda_check(cudaSetDevice(impl->device), "cudaSetDevice");
-    cuda_check(cudaMemcpyAsync(static_cast<char *>(impl->buf[7]) + (size_t) id_bytes * first, id,
-                               (size_t) id_bytes * count, cudaMemcpyDefault, impl->stream),
-               "cudaMemcpy(atoms to the gathering device)");
-    cuda_check(cudaStreamSynchronize(impl->stream), "cudaMemcpy(atoms to the gathering device)");
+    copy_statics_to_device(impl->buf + 3, first, count, nullptr, nullptr, nullptr, nullptr, id,
+                           id_bytes, impl->stream, "cudaMemcpy(atoms to the gathering device)");
   }
 
   void PeerInputs::get_atoms(long first, long count, double *x, double *v, double *tlast)

@@ -332,10 +332,9 @@ namespace Collide {
         if (count <= 0) return;
         state_kept = false;
         cuda_check(cudaSetDevice(device), "cudaSetDevice");
-        cuda_check(cudaMemcpyAsync(d_aid.as<char>() + (size_t) id_bytes * first, id,
-                                   (size_t) id_bytes * count, cudaMemcpyDefault, stream),
-                   "cudaMemcpy(atoms)");
-        cuda_check(cudaStreamSynchronize(stream), "cudaMemcpy(atoms)");
+        void *const dst[5] = {nullptr, nullptr, nullptr, nullptr, d_aid.ptr};
+        copy_statics_to_device(dst, first, count, nullptr, nullptr, nullptr, nullptr, id, id_bytes,
+                               stream, "cudaMemcpy(atoms)");
       }
 
       bool get_atoms(long first, long count, double *x, double *v, double *tlast) override
@@ -399,6 +398,8 @@ namespace Collide {
       DeviceBuffer d_oid, d_slot, d_rx, d_rv, d_rt, d_rr, d_rm, d_rty, d_most;
       PinnedBuffer host_most;
       bool reorder(const ResidentAtoms &a);
+      template <class IdT>
+      bool reorder_by();
       // Window bounds and joined flags come in two sets, window k's in set k % 2, so that the
       // next window's first try can be set up while this one's check may still repair it.
       DeviceBuffer d_wbound2, d_joined2;
@@ -1633,16 +1634,20 @@ namespace Collide {
     bool CudaResidentStep::reorder(const ResidentAtoms &a)
     {
       if (oid_n != n || oid_bytes != a.id_bytes) return false;
+      return a.id_bytes == 8 ? reorder_by<long long>() : reorder_by<int>();
+    }
+
+    /* reorder() with the IDs as IdT (LAMMPS's tagint: 4 or 8 bytes). */
+    template <class IdT>
+    bool CudaResidentStep::reorder_by()
+    {
       const size_t n3 = (size_t) 3 * n * sizeof(double), n1 = (size_t) n * sizeof(double);
       d_most.reserve(2 * sizeof(unsigned long long), "cudaMalloc(reorder)");
       host_most.reserve(2 * sizeof(unsigned long long), "cudaMallocHost(reorder)");
       cuda_check(cudaMemsetAsync(d_most.ptr, 0, 2 * sizeof(unsigned long long), stream),
                  "cudaMemset");
       unsigned long long *most = d_most.as<unsigned long long>();
-      if (a.id_bytes == 8)
-        id_max_kernel<long long><<<nblocks(n), BLOCK, 0, stream>>>(d_oid.as<long long>(), n, most);
-      else
-        id_max_kernel<int><<<nblocks(n), BLOCK, 0, stream>>>(d_oid.as<int>(), n, most);
+      id_max_kernel<IdT><<<nblocks(n), BLOCK, 0, stream>>>(d_oid.as<IdT>(), n, most);
       launched("id_max_kernel");
       fetch(d_most, host_most, sizeof(unsigned long long), "cudaMemcpy(reorder)");
       wait("cudaMemcpy(reorder)");
@@ -1653,23 +1658,12 @@ namespace Collide {
       for (DeviceBuffer *b : {&d_rt, &d_rr, &d_rm}) b->reserve(n1 + 8, "cudaMalloc(reorder)");
       d_rty.reserve((size_t) n * sizeof(int) + 8, "cudaMalloc(reorder)");
       unsigned long long *missing = most + 1;
-      if (a.id_bytes == 8) {
-        id_slot_kernel<long long><<<nblocks(n), BLOCK, 0, stream>>>(d_oid.as<long long>(), n,
-                                                                    d_slot.as<int>());
-        reorder_kernel<long long><<<nblocks(n), BLOCK, 0, stream>>>(
-            d_aid.as<long long>(), d_oid.as<long long>(), d_slot.as<int>(), top, n,
-            d_ax.as<double>(), d_av.as<double>(), d_atlast.as<double>(), d_arad.as<double>(),
-            d_amass.as<double>(), d_atype.as<int>(), d_rx.as<double>(), d_rv.as<double>(),
-            d_rt.as<double>(), d_rr.as<double>(), d_rm.as<double>(), d_rty.as<int>(), missing);
-      } else {
-        id_slot_kernel<int><<<nblocks(n), BLOCK, 0, stream>>>(d_oid.as<int>(), n,
-                                                              d_slot.as<int>());
-        reorder_kernel<int><<<nblocks(n), BLOCK, 0, stream>>>(
-            d_aid.as<int>(), d_oid.as<int>(), d_slot.as<int>(), top, n, d_ax.as<double>(),
-            d_av.as<double>(), d_atlast.as<double>(), d_arad.as<double>(), d_amass.as<double>(),
-            d_atype.as<int>(), d_rx.as<double>(), d_rv.as<double>(), d_rt.as<double>(),
-            d_rr.as<double>(), d_rm.as<double>(), d_rty.as<int>(), missing);
-      }
+      id_slot_kernel<IdT><<<nblocks(n), BLOCK, 0, stream>>>(d_oid.as<IdT>(), n, d_slot.as<int>());
+      reorder_kernel<IdT><<<nblocks(n), BLOCK, 0, stream>>>(
+          d_aid.as<IdT>(), d_oid.as<IdT>(), d_slot.as<int>(), top, n, d_ax.as<double>(),
+          d_av.as<double>(), d_atlast.as<double>(), d_arad.as<double>(), d_amass.as<double>(),
+          d_atype.as<int>(), d_rx.as<double>(), d_rv.as<double>(), d_rt.as<double>(),
+          d_rr.as<double>(), d_rm.as<double>(), d_rty.as<int>(), missing);
       launched("reorder_kernel");
       fetch(d_most, host_most, 2 * sizeof(unsigned long long), "cudaMemcpy(reorder)");
       wait("cudaMemcpy(reorder)");
