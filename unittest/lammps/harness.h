@@ -5,6 +5,7 @@
 
 #include <mpi.h>
 
+#include <cstdlib>
 #include <string>
 #include <vector>
 
@@ -67,6 +68,39 @@ std::string file_text(const std::string &path);
 
 // printf-style formatting of input lines, up to four numbers (formats are the tests' literals).
 std::string fmt(const char *format, double a = 0, double b = 0, double c = 0, double d = 0);
+
+// An environment variable set (value given) or unset (nullptr) for a scope, as it was after;
+// nothing done where apply is false.
+class ScopedEnv {
+ public:
+  ScopedEnv(const char *name, const char *value, bool apply = true) : name(name), apply(apply)
+  {
+    if (!apply) return;
+    const char *was = std::getenv(name);
+    had = was != nullptr;
+    if (had) kept = was;
+    if (value)
+      setenv(name, value, 1);
+    else
+      unsetenv(name);
+  }
+  ScopedEnv(const ScopedEnv &) = delete;
+  ScopedEnv &operator=(const ScopedEnv &) = delete;
+  ~ScopedEnv()
+  {
+    if (!apply) return;
+    if (had)
+      setenv(name, kept.c_str(), 1);
+    else
+      unsetenv(name);
+  }
+
+ private:
+  const char *name;
+  bool apply;
+  bool had = false;
+  std::string kept;
+};
 
 }    // namespace hsgpu_test
 

@@ -1271,14 +1271,13 @@ TEST(FixHardSphere, KeptMotionEqualsCopiedArrays)
                             "fix hs all hardsphere reach 0.5 gpu yes gpu/keep no",
                             "fix hs all hardsphere reach 0.5 gpu yes"};
     for (int k = 0; k < 3; ++k) {
-      if (!cuda) setenv("HSGPU_RESIDENT_HOST", "1", 1);
+      hsgpu_test::ScopedEnv host("HSGPU_RESIDENT_HOST", "1", !cuda);
       Lammps lmp;
       lmp.commands(setup);
       if (!c.after) lmp.commands(c.extra);
       lmp.command(fixes[k]);
       if (c.after) lmp.commands(c.extra);
       lmp.commands({"log " + log, "run 400", "log none"});
-      if (!cuda) unsetenv("HSGPU_RESIDENT_HOST");
       x[k] = lmp.gather("x", 3);
       v[k] = lmp.gather("v", 3);
       coll[k] = lmp.fix_vector("hs", 1);

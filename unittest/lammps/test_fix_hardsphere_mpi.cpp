@@ -19,6 +19,7 @@
 #include <vector>
 
 using hsgpu_test::Lammps;
+using hsgpu_test::ScopedEnv;
 using hsgpu_test::max_abs_diff;
 using ::testing::HasSubstr;
 
@@ -277,9 +278,11 @@ TEST(FixHardSphereMPI, CudaGatheredStepAgreesWithSingleRank)
   if (HSGPU::GPU::device_count() == 0) GTEST_SKIP() << "no CUDA device on this machine";
   // Each rank's x, v and f straight to rank 0's device (CUDA IPC, one node), and through MPI.
   const double ipc = check_device_steps(390.0);    // none handed back in this system
-  setenv("HSGPU_GATHER_MPI", "1", 1);
-  const double mpi = check_device_steps(390.0);
-  unsetenv("HSGPU_GATHER_MPI");
+  double mpi = 0.0;
+  {
+    ScopedEnv through_mpi("HSGPU_GATHER_MPI", "1");
+    mpi = check_device_steps(390.0);
+  }
   int np = 1;
   MPI_Comm_size(MPI_COMM_WORLD, &np);
   if (np > 1) {
@@ -306,10 +309,12 @@ TEST(FixHardSphereMPI, GatheredStepFollowsChangedArrays)
       "compute sred all reduce sum c_sa[1] c_sa[3]", "fix sav all ave/time 7 1 7 c_sred[1]"};
   const std::vector<std::string> midway = {"group gone id 1:500:10",
                                            "delete_atoms group gone compress no"};
-  if (!cuda) setenv("HSGPU_RESIDENT_HOST", "1", 1);
-  const Snapshot world = run_on(MPI_COMM_WORLD, "parallel gpu yes tc 0.05 tc/slow no", 300, false,
-                                false, extra, midway);
-  if (!cuda) unsetenv("HSGPU_RESIDENT_HOST");
+  Snapshot world;
+  {
+    ScopedEnv host("HSGPU_RESIDENT_HOST", "1", !cuda);
+    world = run_on(MPI_COMM_WORLD, "parallel gpu yes tc 0.05 tc/slow no", 300, false, false,
+                   extra, midway);
+  }
   if (me == 0) {
     const Snapshot single =
         run_on(MPI_COMM_SELF, "serial tc 0.05 tc/slow no", 300, false, false, extra, midway);
@@ -338,12 +343,12 @@ TEST(FixHardSphereMPI, GatheredStepWithoutForcesAgreesWithSingleRank)
   MPI_Comm_rank(MPI_COMM_WORLD, &me);
   MPI_Comm_size(MPI_COMM_WORLD, &np);
   for (const bool mpi : {false, true}) {
-    if (mpi) setenv("HSGPU_GATHER_MPI", "1", 1);
-    if (!cuda) setenv("HSGPU_RESIDENT_HOST", "1", 1);
-    const Snapshot world =
-        run_on(MPI_COMM_WORLD, "parallel gpu yes", 200, false, false, {}, {}, false);
-    if (!cuda) unsetenv("HSGPU_RESIDENT_HOST");
-    if (mpi) unsetenv("HSGPU_GATHER_MPI");
+    Snapshot world;
+    {
+      ScopedEnv through_mpi("HSGPU_GATHER_MPI", "1", mpi);
+      ScopedEnv host("HSGPU_RESIDENT_HOST", "1", !cuda);
+      world = run_on(MPI_COMM_WORLD, "parallel gpu yes", 200, false, false, {}, {}, false);
+    }
     if (me == 0) {
       const Snapshot single =
           run_on(MPI_COMM_SELF, "serial", 200, false, false, {}, {}, false);
@@ -402,14 +407,14 @@ TEST(FixHardSphereMPI, GatheredStepRunAheadAgreesWithSingleRank)
     const bool mpi = k == 4;
     std::vector<std::string> extra = c.extra;
     extra.push_back("log " + log);
-    if (!cuda) setenv("HSGPU_RESIDENT_HOST", "1", 1);
-    if (mpi) setenv("HSGPU_GATHER_MPI", "1", 1);
-    const Snapshot ahead =
-        run_on(MPI_COMM_WORLD, "parallel gpu yes", 250, false, false, extra, {}, c.gravity);
-    const Snapshot copied = run_on(MPI_COMM_WORLD, "parallel gpu yes gpu/keep no", 250, false,
-                                   false, c.extra, {}, c.gravity);
-    if (mpi) unsetenv("HSGPU_GATHER_MPI");
-    if (!cuda) unsetenv("HSGPU_RESIDENT_HOST");
+    Snapshot ahead, copied;
+    {
+      ScopedEnv host("HSGPU_RESIDENT_HOST", "1", !cuda);
+      ScopedEnv through_mpi("HSGPU_GATHER_MPI", "1", mpi);
+      ahead = run_on(MPI_COMM_WORLD, "parallel gpu yes", 250, false, false, extra, {}, c.gravity);
+      copied = run_on(MPI_COMM_WORLD, "parallel gpu yes gpu/keep no", 250, false, false, c.extra,
+                      {}, c.gravity);
+    }
     if (me == 0) {
       const Snapshot single =
           run_on(MPI_COMM_SELF, "serial", 250, false, false, c.extra, {}, c.gravity);
@@ -496,10 +501,11 @@ TEST(FixHardSphereMPI, GatheredStepOfAGroup)
         "zhi 1.0 tc 0.05 tc/slow no order " +
             order};
   };
-  if (!cuda) setenv("HSGPU_RESIDENT_HOST", "1", 1);
-  const Snapshot world =
-      run_on(MPI_COMM_WORLD, "parallel", 300, false, false, extra("parallel gpu yes"));
-  if (!cuda) unsetenv("HSGPU_RESIDENT_HOST");
+  Snapshot world;
+  {
+    ScopedEnv host("HSGPU_RESIDENT_HOST", "1", !cuda);
+    world = run_on(MPI_COMM_WORLD, "parallel", 300, false, false, extra("parallel gpu yes"));
+  }
   if (me == 0) {
     const Snapshot single = run_on(MPI_COMM_SELF, "serial", 300, false, false, extra("serial"));
     EXPECT_EQ(max_abs_diff(world.x, single.x), 0.0);
@@ -521,9 +527,8 @@ TEST(FixHardSphereMPI, GatheredStepOfAGroup)
 TEST(FixHardSphereMPI, HostResidentStepAgreesWithSingleRank)
 {
   if (HSGPU::GPU::device_count() > 0) GTEST_SKIP() << "a CUDA device is present (see above)";
-  setenv("HSGPU_RESIDENT_HOST", "1", 1);
+  ScopedEnv host("HSGPU_RESIDENT_HOST", "1");
   check_device_steps(300.0);
-  unsetenv("HSGPU_RESIDENT_HOST");
 }
 
 // Issue 15: rough spheres (friction between the types and on the floor): the spins travel with
@@ -848,33 +853,6 @@ TEST(FixHardSphereMPI, SpanningGroupsGatheredFromTheNeighbouringRanks)
   compare_neighbour_gather("fluid", 100);
   compare_neighbour_gather("rough", 300);
 }
-
-// An environment variable set (value given) or unset (nullptr) for a scope, as it was after.
-class ScopedEnv {
- public:
-  ScopedEnv(const char *name, const char *value) : name(name)
-  {
-    const char *was = std::getenv(name);
-    had = was != nullptr;
-    if (had) kept = was;
-    if (value)
-      setenv(name, value, 1);
-    else
-      unsetenv(name);
-  }
-  ~ScopedEnv()
-  {
-    if (had)
-      setenv(name, kept.c_str(), 1);
-    else
-      unsetenv(name);
-  }
-
- private:
-  const char *name;
-  bool had = false;
-  std::string kept;
-};
 
 // HSGPU_SPANNING_WIDE=1: every boundary atom goes to every rank of the spanning groups' ghosts
 // at a gather, so no round passes entries on; the same bits as the gather that passes them on.

@@ -118,9 +118,10 @@ TEST(PairGravityMPI, GpuPathOnAllRanksAgreesWithCpuOnOne)
   compare_world_with_single_rank(s, s.pair + " gpu yes precision double", 1e-10, log);
   // On one node (these tests' mpirun) the copies between devices ran, and nothing fell back.
   const std::string peers = file_text(log);
-  setenv("HSGPU_GATHER_MPI", "1", 1);
-  compare_world_with_single_rank(s, s.pair + " gpu yes precision double", 1e-10, log);
-  unsetenv("HSGPU_GATHER_MPI");
+  {
+    hsgpu_test::ScopedEnv through_mpi("HSGPU_GATHER_MPI", "1");
+    compare_world_with_single_rank(s, s.pair + " gpu yes precision double", 1e-10, log);
+  }
   if (me == 0 && np > 1) {
     EXPECT_NE(peers.find("copies the other ranks' positions from their devices"),
               std::string::npos);
