@@ -125,7 +125,8 @@ double restitution_arg(const char *arg, LAMMPS *lmp)
 }    // namespace
 
 FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
-    Fix(lmp, narg, arg), serial_order(0), spanning_gather(1), nwindows_user(0), tc_user(-1.0),
+    Fix(lmp, narg, arg), serial_order(0), neighbour_exchange(1), spanning_gather(1),
+    nwindows_user(0), tc_user(-1.0),
     vmin(0.0), vmin_auto(1), tc_slow(1),
     maxevents_user(-1), maxevents_warn(0), overlap_push(0), maxpush(DEFAULT_MAXPUSH),
     reach_user(-1.0), gpu_requested(0), device_request(-1), gpu_gather(1), backend_device(-1), friction_on(0),
@@ -578,6 +579,16 @@ void FixHardSphere::init()
   // Tuning aid: HSGPU_SPANNING_WIDE=1, every boundary atom to every neighbouring rank of the
   // spanning groups at a gather (WindowSettings::gather_wide; no result bit depends on it).
   wsettings.gather_wide = std::getenv("HSGPU_SPANNING_WIDE") != nullptr;
+  // The gathers' messages go to the neighbouring ranks only, one to each (no consensus
+  // over all ranks); HSGPU_NEIGHBOUR_EXCHANGE=0 makes them the messages with a non-blocking
+  // barrier instead (for comparison; no result bit depends on it).  The same on all ranks.
+  {
+    const char *e = std::getenv("HSGPU_NEIGHBOUR_EXCHANGE");
+    int on = (e && utils::inumeric(FLERR, e, false, lmp) == 0) ? 0 : 1;
+    MPI_Allreduce(MPI_IN_PLACE, &on, 1, MPI_INT, MPI_MIN, world);
+    neighbour_exchange = on;
+    exchange->forget_neighbours();
+  }
   // Tuning aid: HSGPU_EDGE_FACTOR and HSGPU_EDGE_HOPS set the window bounds of the atoms next to
   // another rank's (WindowSettings::edge_factor, edge_hops; no result bit depends on them).
   if (const char *e = std::getenv("HSGPU_EDGE_FACTOR"))

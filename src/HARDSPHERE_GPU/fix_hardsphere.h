@@ -77,6 +77,7 @@ class FixHardSphere : public Fix {
   std::vector<double> epair;    // restitution of type pairs, (ntypes + 1)^2
   HSGPU::Collide::Walls walls;
   int serial_order;         // 1: the seed paper's global loop, 0: time windows and groups
+  int neighbour_exchange;    // 1: gathers' messages with the neighbouring ranks only (3+ ranks)
   int spanning_gather;      // 1: groups spanning ranks always gathered (default), 0: resolved
                             // in the view (spanning view)
   int nwindows_user;        // windows per step, 0: adaptive

@@ -175,6 +175,78 @@ bool LammpsExchange::to_ranks(const std::vector<int> &dest,
   return true;
 }
 
+void LammpsExchange::find_neighbours(const std::vector<HSGPU::Collide::ForeignNode> &fnodes,
+                                     long stamp)
+{
+  if (nbr_ready && stamp == nbr_stamp) return;
+  const int me = fix->comm->me;
+  std::vector<int> owners;
+  for (const auto &f : fnodes)
+    if (f.owner >= 0 && f.owner != me) owners.push_back(f.owner);
+  std::sort(owners.begin(), owners.end());
+  owners.erase(std::unique(owners.begin(), owners.end()), owners.end());
+  // Each owner learns that this rank holds ghosts of its atoms.
+  const std::vector<std::vector<double>> hello(owners.size(), std::vector<double>(1, (double) me));
+  std::vector<double> got;
+  to_ranks(owners, hello, got);
+  for (double r : got) owners.push_back((int) r);
+  std::sort(owners.begin(), owners.end());
+  owners.erase(std::unique(owners.begin(), owners.end()), owners.end());
+  nbrs.swap(owners);
+  nbr_stamp = stamp;
+  nbr_ready = true;
+}
+
+const std::vector<int> *LammpsExchange::neighbours() const
+{
+  return nbr_ready ? &nbrs : nullptr;
+}
+
+/* One message to every neighbouring rank (empty where dest does not name it) and one from
+   each: the receives are matched by source, so no count and no consensus is exchanged. */
+void LammpsExchange::to_neighbours(const std::vector<int> &dest,
+                                   const std::vector<std::vector<double>> &send,
+                                   std::vector<double> &recv)
+{
+  const int TAG = 7421;
+  const double t0 = MPI_Wtime();
+  const int nn = (int) nbrs.size();
+  nbr_msg.assign(nn, -1);
+  for (size_t k = 0; k < dest.size(); ++k) {
+    const auto it = std::lower_bound(nbrs.begin(), nbrs.end(), dest[k]);
+    if (it == nbrs.end() || *it != dest[k])
+      fix->error->one(FLERR, "Fix hardsphere: internal error: a message for rank {}, which is "
+                             "not a neighbouring rank of rank {}", dest[k], fix->comm->me);
+    if (send[k].size() > 2147483647UL)
+      fix->error->one(FLERR, "Fix hardsphere: too many atoms in groups that span ranks");
+    nbr_msg[it - nbrs.begin()] = (int) k;
+  }
+  static double nothing = 0.0;
+  nbr_req.assign(nn, MPI_REQUEST_NULL);
+  for (int q = 0; q < nn; ++q) {
+    const int k = nbr_msg[q];
+    double *buf = k >= 0 ? const_cast<double *>(send[k].data()) : &nothing;
+    const int n = k >= 0 ? (int) send[k].size() : 0;
+    MPI_Isend(k >= 0 && n > 0 ? buf : &nothing, n, MPI_DOUBLE, nbrs[q], TAG, p2p, &nbr_req[q]);
+  }
+  recv.clear();
+  double bytes = 0.0;
+  for (int q = 0; q < nn; ++q) {
+    MPI_Status st;
+    MPI_Probe(nbrs[q], TAG, p2p, &st);
+    int count = 0;
+    MPI_Get_count(&st, MPI_DOUBLE, &count);
+    const size_t at = recv.size();
+    recv.resize(at + (size_t) count);
+    MPI_Recv(count > 0 ? recv.data() + at : &nothing, count, MPI_DOUBLE, nbrs[q], TAG, p2p,
+             MPI_STATUS_IGNORE);
+    bytes += (double) count * sizeof(double);
+  }
+  MPI_Waitall(nn, nbr_req.data(), MPI_STATUSES_IGNORE);
+  fix->comm_step.seconds += MPI_Wtime() - t0;
+  fix->count_messages((double) nn, bytes);
+}
+
 void LammpsExchange::max(double *v, int n)
 {
   fix->allreduce(MPI_IN_PLACE, v, n, MPI_DOUBLE, MPI_MAX);

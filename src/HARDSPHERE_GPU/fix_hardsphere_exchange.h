@@ -33,8 +33,20 @@ class LammpsExchange : public HSGPU::Collide::Exchange {
   void allgather(const std::vector<double> &send, std::vector<double> &recv, long &mine) override;
   bool to_ranks(const std::vector<int> &dest, const std::vector<std::vector<double>> &send,
                 std::vector<double> &recv) override;
+  const std::vector<int> *neighbours() const override;
+  void to_neighbours(const std::vector<int> &dest, const std::vector<std::vector<double>> &send,
+                     std::vector<double> &recv) override;
   void max(double *v, int n) override;
   void sum(long *v, int n) override;
+
+  /// The neighbouring ranks of to_neighbours(): the owners of the foreign nodes `fnodes`,
+  /// and the ranks whose foreign nodes this rank owns (one exchange with a consensus, so
+  /// that the relation is symmetric).  Made again where `stamp` differs from the last call's
+  /// (the number of neighbor list builds: the same on every rank, and the ghosts, whose
+  /// owners these are, change only then).  Every rank calls it at the same point.
+  void find_neighbours(const std::vector<HSGPU::Collide::ForeignNode> &fnodes, long stamp);
+  /// No neighbouring ranks (to_neighbours() unused) until the next find_neighbours().
+  void forget_neighbours() { nbr_ready = false; }
 
  private:
   FixHardSphere *fix;
@@ -42,6 +54,11 @@ class LammpsExchange : public HSGPU::Collide::Exchange {
   long p2p_calls = 0;
   std::vector<double> inbox;                   // to_ranks(): the messages as they came
   std::vector<std::array<long, 3>> inbox_parts;    // and their (source, offset, length)
+  std::vector<int> nbrs;          // the neighbouring ranks, sorted
+  std::vector<int> nbr_msg;       // to_neighbours(): per neighbour, its index in dest or -1
+  std::vector<MPI_Request> nbr_req;
+  bool nbr_ready = false;
+  long nbr_stamp = -1;
 };
 
 }    // namespace LAMMPS_NS

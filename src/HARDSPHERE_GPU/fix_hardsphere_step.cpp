@@ -1186,6 +1186,10 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
     if (!cpu_backend) cpu_backend = HSGPU::Collide::make_cpu_backend();
     be = cpu_backend.get();
   }
+  // On three ranks or more the gathers of the groups that span ranks exchange with the
+  // neighbouring ranks, made again after each new neighbor list (the ghosts' owners).
+  if (comm->nprocs > 2 && spanning_gather && neighbour_exchange)
+    exchange->find_neighbours(fnodes, (long) neighbor->ncalls);
   while (true) {
     const double t0 = MPI_Wtime();
     if (vflag_atom) bvir.assign(6 * bodies.size(), 0.0);

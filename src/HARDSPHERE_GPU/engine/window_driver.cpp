@@ -30,6 +30,12 @@ namespace Collide {
       ~ScopeTime() { sum += lap(t0); }
     };
 
+    /// Whether rank r is `self` or one of the sorted neighbouring ranks nbrs.
+    bool is_neighbour(const std::vector<int> &nbrs, int r, int self)
+    {
+      return r == self || std::binary_search(nbrs.begin(), nbrs.end(), r);
+    }
+
     constexpr double MARGIN = WINDOW_MARGIN;
     /// Doubles per body in the boundary exchange (pack_body; 3 more with friction: the spin),
     /// and per partner (id, shift).
@@ -383,7 +389,10 @@ namespace Collide {
     std::vector<double> &got = gotbuf;
     {
       ScopeTime st(times.gather_messages);
-      if (!ex.to_ranks(ndest, nsend, got)) return false;
+      if (ex.neighbours())
+        ex.to_neighbours(ndest, nsend, got);
+      else if (!ex.to_ranks(ndest, nsend, got))
+        return false;
     }
     recv = send;
     recv.insert(recv.end(), got.begin(), got.end());
@@ -689,18 +698,25 @@ namespace Collide {
       }
       // Whether some rank lacks a partner of a body in a group of its own (a foreign node
       // whose owner is not known counts as such).
+      // With it, whether some rank holds a body of a group with a body owned by a rank that
+      // is not its neighbour (then the results go to their owners with a consensus, since
+      // the rank that resolves the group may not be a neighbour of every owner).
+      const std::vector<int> *nbrs = ex.neighbours();
       auto incomplete = [&]() {
-        long c[1] = {unknown_owner ? 1L : 0L};
-        for (int g = 0; g < ngr && !c[0]; ++g) {
-          bool here = false, missing = false;
+        long c[2] = {unknown_owner ? 1L : 0L, 0L};
+        for (int g = 0; g < ngr && !(c[0] && (c[1] || !nbrs)); ++g) {
+          bool here = false, missing = false, far = false;
           for (int m = gstart2[g]; m < gstart2[g + 1]; ++m) {
             here |= gmine[gmembers2[m]] >= 0;
             missing |= gmissing[gmembers2[m]] != 0;
+            if (nbrs) far |= !is_neighbour(*nbrs, gathered_owner(gmembers2[m]), ex.rank());
           }
           if (here && missing) c[0] = 1;
+          if (here && far) c[1] = 1;
         }
         ScopeTime st(times.gather_messages);
-        ex.sum(c, 1);
+        ex.sum(c, nbrs ? 2 : 1);
+        results_far = !nbrs || c[1] > 0;
         return c[0] > 0;
       };
       // A group over three ranks or more may reach a rank through another one only: each
@@ -727,7 +743,9 @@ namespace Collide {
           owners.erase(std::unique(owners.begin(), owners.end()), owners.end());
           if (!here || owners.size() < 3) continue;
           for (int d : owners) {
-            if (d == ex.rank()) continue;
+            // (With neighbouring ranks, entries pass on to them only: a group's owners are
+            // linked through neighbours, so more rounds reach the others.)
+            if (d == ex.rank() || (nbrs && !is_neighbour(*nbrs, d, -1))) continue;
             for (int m = gstart2[g]; m < gstart2[g + 1]; ++m) {
               const int k = gmembers2[m];
               if (gathered_owner(k) != d) sendto.emplace_back(d, k);
@@ -741,7 +759,10 @@ namespace Collide {
         std::vector<double> &got = gotbuf;
         {
           ScopeTime st(times.gather_messages);
-          ex.to_ranks(ndest, nsend, got);
+          if (nbrs)
+            ex.to_neighbours(ndest, nsend, got);
+          else
+            ex.to_ranks(ndest, nsend, got);
         }
         if (!got.empty()) {
           ScopeTime st(times.gather_unpack);
@@ -880,7 +901,10 @@ namespace Collide {
                   o.begin() + at + 1 + nr);
     });
     std::vector<double> &got = gotbuf;
-    ex.to_ranks(ndest, nsend, got);
+    if (results_far)
+      ex.to_ranks(ndest, nsend, got);
+    else
+      ex.to_neighbours(ndest, nsend, got);
     long taken = 0;
     for (size_t off = 0; off + nval <= got.size(); off += nval) {
       const int k = gathered_index((long) got[off]);
@@ -1054,10 +1078,12 @@ namespace Collide {
   /* After the boundary groups: the pairs not joined that involve a boundary group or a
      foreign node and could have touched.  They are joined (their local groups become part of
      the boundary groups); every rank sees the same foreign pairs.  Returns the number joined
-     over all ranks. */
+     over all ranks.  `capped` (whether the event cap stopped a group here) rides in the same
+     reduction: it comes back as whether it did on any rank. */
   long WindowDriver::join_missed_boundary(std::vector<Body> &bodies, const std::vector<Edge> &edges,
                                           const std::vector<ForeignEdge> &fedges,
-                                          const std::vector<ForeignNode> &foreign, Exchange &ex)
+                                          const std::vector<ForeignNode> &foreign, Exchange &ex,
+                                          int &capped)
   {
     const int nb = (int) bodies.size();
     ex.to_foreign(lexc, 1, fexc);
@@ -1088,8 +1114,9 @@ namespace Collide {
       uf.unite(fe.body, nb + fe.node);
       ++joined;
     }
-    long c[1] = {joined};
-    ex.sum(c, 1);
+    long c[2] = {joined, capped ? 1L : 0L};
+    ex.sum(c, 2);
+    capped = c[1] > 0 ? 1 : 0;
     if (c[0] == 0) return 0;
     // Boundary roots anew; every body in a boundary group (old or new) back to the window
     // start; local groups that joined one leave the local tallies.
@@ -1333,13 +1360,23 @@ namespace Collide {
     // Boundary groups, the same on every rank; repaired until no missed pair is left.
     long bl = 0, bg = 0, nbound = 0, joined_all = 0;
     const Tally tbnd_start = tbnd;
+    // Whether the event cap stopped a group here (the local groups' tallies and the boundary
+    // groups' of the last pass); over all ranks, in the missed pairs' reduction of the last
+    // pass (which joins nothing, so no tally changes after it).
+    auto capped_here = [&]() {
+      int cp = cap.capped | tbnd.capped;
+      for (int g = 0; g < nlocal_groups; ++g) cp |= gtally[g].capped;
+      return cp;
+    };
+    int capped_all = 0;
     for (int pass = 0; ex.nranks() > 1; ++pass) {
       tbnd = tbnd_start;
       bl = bg = nbound = 0;
       resolve_boundary(bodies, fedges, foreign, p, t1, backend, ex, tbnd, bl, bg, nbound);
       auto join_clock = std::chrono::steady_clock::now();
       excursions(bodies, t1, &bsent);    // the others are as the local pass left them
-      const long joined = join_missed_boundary(bodies, edges, fedges, foreign, ex);
+      capped_all = capped_here();
+      const long joined = join_missed_boundary(bodies, edges, fedges, foreign, ex, capped_all);
       times.span_join += lap(join_clock);
       ++stats_gathers;
       if (joined == 0) break;
@@ -1348,16 +1385,12 @@ namespace Collide {
     times.spanning += lap(clock);
     if (tally_virial)
       for (size_t k = 0; k < 6 * (size_t) nb; ++k) body_virial_out[k] += wvir[k];
-    int cp = cap.capped | tbnd.capped;
     long ngroups = 0;
     for (int g = 0; g < nlocal_groups; ++g) {
-      cp |= gtally[g].capped;
       tloc.add(gtally[g]);
       if (gtally[g].events > 0) ++ngroups;
     }
-    long c[1] = {cp ? 1L : 0L};
-    if (ex.nranks() > 1) ex.sum(c, 1);
-    capped = c[0] > 0;
+    capped = ex.nranks() > 1 ? capped_all : capped_here();
     largest = std::max(largest, bl);
     // The boundary groups' figures are counted by the rank of each one's lowest-ID body; the
     // joined pairs, the same on every rank, on rank 0.

@@ -124,6 +124,23 @@ namespace Collide {
       (void) recv;
       return false;
     }
+    /// The ranks that to_neighbours() exchanges with (sorted, without this rank; the
+    /// relation is symmetric: this rank is among each one's), or nullptr where the exchange
+    /// has no such set.  It holds at least the owners of every foreign node given to run().
+    virtual const std::vector<int> *neighbours() const { return nullptr; }
+    /// Point to point with the neighbouring ranks only: send[k] to dest[k] (each one of
+    /// neighbours()), an empty message to every other neighbour, and what each neighbour
+    /// sends here into recv, concatenated in the order of their ranks.  Every rank takes
+    /// part (with its own neighbours); since each rank hears from each of its neighbours,
+    /// no rank waits for any other rank, and no consensus over all ranks is needed.
+    virtual void to_neighbours(const std::vector<int> &dest,
+                               const std::vector<std::vector<double>> &send,
+                               std::vector<double> &recv)
+    {
+      (void) dest;
+      (void) send;
+      recv.clear();
+    }
     virtual void max(double *v, int n) = 0;    // in place, over all ranks
     virtual void sum(long *v, int n) = 0;      // in place, over all ranks
   };
@@ -269,6 +286,9 @@ namespace Collide {
     long stats_neighbour = 0;
     long stats_forwards = 0;
     bool gather_wide = false;    // WindowSettings::gather_wide of this run()
+    // The last gather to the neighbours: some owner of a body in a group resolved here is not
+    // a neighbouring rank (or the exchange has none): results go out with a consensus.
+    bool results_far = true;
     int neighbour_skip = 0;       // gathers left that go to every rank at once
     int neighbour_backoff = 8;    // the next such skip
     std::vector<int> bsent;    // local bodies of the boundary groups of the last gather
@@ -352,7 +372,8 @@ namespace Collide {
                       double t1, CollisionBackend &backend, long events_before, long &repairs);
     long join_missed_boundary(std::vector<Body> &bodies, const std::vector<Edge> &edges,
                               const std::vector<ForeignEdge> &fedges,
-                              const std::vector<ForeignNode> &foreign, Exchange &ex);
+                              const std::vector<ForeignNode> &foreign, Exchange &ex,
+                              int &capped);
   };
 
 }    // namespace Collide
