@@ -595,6 +595,15 @@ void FixHardSphere::init()
     wsettings.edge_factor = utils::numeric(FLERR, e, false, lmp);
   if (const char *e = std::getenv("HSGPU_EDGE_HOPS"))
     wsettings.edge_hops = utils::inumeric(FLERR, e, false, lmp);
+  // Tuning aids: HSGPU_TARGET_GROUP, the largest group a window aims at (default max(256, N /
+  // 128)), and HSGPU_SPAN_TARGET, that of the part of a group spanning ranks that one rank
+  // sees (default 256; 0: the same as any group's).  No result bit depends on them.
+  if (const char *e = std::getenv("HSGPU_TARGET_GROUP"))
+    wsettings.target_group = utils::bnumeric(FLERR, e, false, lmp);
+  if (const char *e = std::getenv("HSGPU_SPAN_TARGET"))
+    wsettings.span_target = utils::bnumeric(FLERR, e, false, lmp);
+  if (wsettings.target_group < 0 || wsettings.span_target < 0)
+    error->all(FLERR, "Fix hardsphere: HSGPU_TARGET_GROUP and HSGPU_SPAN_TARGET must be >= 0");
   if (wsettings.edge_factor <= 0.0 || wsettings.edge_hops < 0)
     error->all(FLERR, "Fix hardsphere: HSGPU_EDGE_FACTOR must be > 0 and HSGPU_EDGE_HOPS >= 0");
   if (nwindows_user == 1) {

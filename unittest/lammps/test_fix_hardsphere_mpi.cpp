@@ -701,6 +701,7 @@ struct Spanning {
   double gathered = 0.0;
   double neighbour = 0.0;    // f_hs[30]: gathers with the neighbouring ranks only
   double collectives = 0.0;    // f_hs[24]: collective operations per step
+  double largest = 0.0;        // f_hs[7]: the most atoms resolved together, per step
 };
 
 // kind "fluid": 12^3 elastic spheres of diameter 1 on a simple cubic lattice at packing
@@ -712,13 +713,13 @@ struct Spanning {
 // decomposition).
 Spanning run_dense(MPI_Comm comm, const std::string &kind, const std::string &order, int steps,
                    const std::string &cutoff, const std::string &spanning = "view",
-                   const std::string &logfile = "")
+                   const std::string &logfile = "", int side = 12)
 {
   Lammps lmp(comm);
   const bool fluid = kind == "fluid";
   // The pile: 20 x 10 x 5 spheres in a box longest in x, so that the ranks split it
-  // sideways.
-  const int nx = fluid ? 12 : 20, ny = fluid ? 12 : 10, nz = fluid ? 12 : 5;
+  // sideways.  The fluid: side^3 spheres.
+  const int nx = fluid ? side : 20, ny = fluid ? side : 10, nz = fluid ? side : 5;
   const double a = fluid ? std::cbrt(M_PI / (6.0 * 0.45)) : 1.05;
   const double lx = nx * a, ly = ny * a, lz = fluid ? nz * a : 1.9 * ny * a;
   lmp.commands({"units lj", "atom_style sphere", "atom_modify map array",
@@ -754,7 +755,7 @@ Spanning run_dense(MPI_Comm comm, const std::string &kind, const std::string &or
   if (!logfile.empty()) lmp.commands({"log " + logfile});
   lmp.commands({"timestep 0.01", "thermo 0",
                 "fix avg all ave/time 1 " + ns + " " + ns +
-                    " f_hs[9] f_hs[11] f_hs[16] f_hs[27] f_hs[28] f_hs[29] f_hs[30] f_hs[24]",
+                    " f_hs[9] f_hs[11] f_hs[16] f_hs[27] f_hs[28] f_hs[29] f_hs[30] f_hs[24] f_hs[7]",
                 "run " + ns});
   Spanning s;
   s.x = lmp.gather("x", 3);
@@ -770,6 +771,7 @@ Spanning run_dense(MPI_Comm comm, const std::string &kind, const std::string &or
   s.gathered = lmp.fix_vector("avg", 5);
   s.neighbour = lmp.fix_vector("avg", 6);
   s.collectives = lmp.fix_vector("avg", 7);
+  s.largest = lmp.fix_vector("avg", 8);
   return s;
 }
 
@@ -959,6 +961,39 @@ TEST(FixHardSphereMPI, NeighbourMessagesKeepTheBitsWithFewerCollectives)
                 "with messages to the neighbouring ranks, %.4g with a barrier; %.3g gathers per "
                 "step; the same %.0f collisions\n",
                 np, nbr.collectives, barrier.collectives, nbr.neighbour, nbr.collisions);
+  MPI_Barrier(MPI_COMM_WORLD);
+}
+
+// A window's length is chosen so that its largest group stays near a target; a group that
+// spans ranks is weighed by the part of it one rank sees, against a target of its own (256),
+// not the whole step's: with the step's target (here 8000 for a fluid of 13824 atoms) the parts
+// stayed below it while one group threaded through the ranks' boundaries and joined most atoms.
+TEST(FixHardSphereMPI, GroupsSpanningRanksHaveATargetOfTheirOwn)
+{
+  int me = 0, np = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  if (np < 2) GTEST_SKIP() << "groups span ranks on two ranks or more";
+  ScopedEnv t("HSGPU_TARGET_GROUP", "8000");
+  Spanning blind, own;
+  {
+    ScopedEnv e("HSGPU_SPAN_TARGET", "0");
+    blind = run_dense(MPI_COMM_WORLD, "fluid", "parallel", 40, "2.5", "gather", "", 24);
+  }
+  {
+    ScopedEnv e("HSGPU_SPAN_TARGET", nullptr);
+    own = run_dense(MPI_COMM_WORLD, "fluid", "parallel", 40, "2.5", "gather", "", 24);
+  }
+  EXPECT_EQ(max_abs_diff(own.x, blind.x), 0.0);
+  EXPECT_EQ(max_abs_diff(own.v, blind.v), 0.0);
+  EXPECT_EQ(own.collisions, blind.collisions);
+  EXPECT_GT(blind.largest, 2000.0) << "most atoms per step in one group, the step's target";
+  EXPECT_LT(own.largest, 1000.0) << "most atoms per step in one group, a target of their own";
+  if (me == 0)
+    std::printf("[ MPI      ] %d ranks, fluid of 13824 atoms, target 8000, 40 steps: largest "
+                "group %.4g atoms per step (%.4g weighed against the step's target), %.3g "
+                "windows per step (%.3g); the same %.0f collisions\n",
+                np, own.largest, blind.largest, own.windows, blind.windows, own.collisions);
   MPI_Barrier(MPI_COMM_WORLD);
 }
 

@@ -47,6 +47,12 @@ namespace Collide {
     // 1: the same bounds everywhere.  No result bit depends on it.
     double edge_factor = 0.5;
     int edge_hops = 1;
+    // On several ranks (the host step driver without the view): the part of a group that
+    // spans ranks that one rank sees (its bodies and the foreign nodes joined to them) is
+    // weighed against a target of its own, the smaller of this and target_group's, since no
+    // rank sees the whole group (window_driver.cpp, window_edges()).  <= 0: against the step's
+    // target like any group.  No result bit depends on it.
+    long span_target = 256;
   };
 
   /// Relative margin on contact distances for round-off in the windows' join and check tests,

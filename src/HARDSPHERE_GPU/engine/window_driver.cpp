@@ -302,15 +302,33 @@ namespace Collide {
     uf.reset(nb + nf);
     for (const Edge &e : wedges) uf.unite(e.i, e.j);
     for (int q : fwin) uf.unite(fedges[q].body, nb + fedges[q].node);
-    // The largest group's local bodies (of a boundary group, its local part: a lower bound of
-    // its size).  The groups themselves are placed by window_groups(), once the window is
-    // chosen.
+    // The largest local group, and the largest part of a boundary group that this rank sees
+    // (its local bodies and the foreign nodes joined to them).  A boundary group is weighed
+    // against a target of its own, WindowSettings::span_target: each rank sees only its part, and a
+    // group threading through many small domains, each part below the whole step's target,
+    // can join most atoms (on 64 ranks of the fluid at 1728 atoms per rank, one group of 42000
+    // of 110592 atoms, gathered everywhere; on 64 ranks at 32768 per rank, a run that filled
+    // the host's memory).  Returns the larger of the two over all ranks, the boundary part
+    // scaled to the step's target, for the chooser; window_seen gets the larger part itself.
+    // The groups themselves are placed by window_groups(), once the window is chosen.
     fill.assign(nb + nf, 0);
-    long largest = 0;
-    for (int b = 0; b < nb; ++b) largest = std::max(largest, (long) ++fill[uf.find(b)]);
-    double l = (double) largest;
-    ex.max(&l, 1);
-    return (long) l;
+    isb.assign(nb + nf, 0);    // roots of the groups with a foreign node (as window_groups())
+    for (int b = 0; b < nb + nf; ++b) {
+      const int r = uf.find(b);
+      ++fill[r];
+      if (b >= nb) isb[r] = 1;
+    }
+    double l[2] = {0.0, 0.0};
+    for (int b = 0; b < nb; ++b) {
+      const int r = uf.find(b);
+      const int at = isb[r] ? 1 : 0;
+      l[at] = std::max(l[at], (double) fill[r]);
+    }
+    ex.max(l, 2);
+    window_seen = (long) std::max(l[0], l[1]);
+    const double span_target =
+        (double) (s.span_target > 0 ? std::min(step_target, s.span_target) : step_target);
+    return (long) std::max(l[0], std::ceil(l[1] * (double) step_target / span_target));
   }
 
   /* The local groups of the window last set up by window_edges() (gstart/gmembers; boundary
@@ -1330,7 +1348,8 @@ namespace Collide {
     auto clock = std::chrono::steady_clock::now();
     if (!edges_made) {
       start_cached = false;
-      largest = std::max(largest, window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex));
+      window_edges(bodies, edges, fedges, foreign, t0, t1, s, ex);
+      largest = std::max(largest, window_seen);
       times.edges += lap(clock);
     }
     window_groups(nb, (int) foreign.size());
@@ -1427,6 +1446,7 @@ namespace Collide {
     long counts[2] = {(long) nb, tally_virial ? 1L : 0L};
     ex.sum(counts, 2);
     const long target = WindowChooser::target(s, counts[0]);
+    step_target = target;
     const bool virial_step = counts[1] > 0;
     virial_all = virial_step;
     results_missing = false;
@@ -1505,7 +1525,7 @@ namespace Collide {
           [&](double t) { return window_edges(bodies, edges, fedges, foreign, t0, t, s, ex); },
           largest);
       times.edges += lap(clock);
-      largest_all = std::max(largest_all, largest);
+      largest_all = std::max(largest_all, window_seen);
       int capped = 0;
       fallback_window(bodies, edges, fedges, foreign, p, s, backend, ex, t0, t1, tloc, tbnd, capped,
                       acc, largest_all, true);

@@ -232,6 +232,8 @@ namespace Collide {
     WindowChooser chooser;
     std::vector<char> near_edge, near_next;    // local body next to another rank's atoms
     double speed_floor = 0.0;    // f vmax of this step
+    long step_target = 256;      // the chooser's target of this step (largest group wanted)
+    long window_seen = 0;        // window_edges(): the largest group (part) over all ranks
     // per window
     std::vector<Body> snap;       // the bodies at the window start
     std::vector<Tally> gtally;    // tally of each local group
