@@ -244,7 +244,7 @@ namespace Collide {
 
   /* The window [t0, t1): window start points, bounds, the window's edges and their union-find
      forest (window_groups() places the groups of the window chosen).  Returns the largest
-     group's local part over all ranks. */
+     group over all ranks as the chooser weighs it (below). */
   long WindowDriver::window_edges(std::vector<Body> &bodies, const std::vector<Edge> &edges,
                                   const std::vector<ForeignEdge> &fedges,
                                   const std::vector<ForeignNode> &foreign, double t0, double t1,
@@ -309,7 +309,8 @@ namespace Collide {
     // can join most atoms (on 64 ranks of the fluid at 1728 atoms per rank, one group of 42000
     // of 110592 atoms, gathered everywhere; on 64 ranks at 32768 per rank, a run that filled
     // the host's memory).  Returns the larger of the two over all ranks, the boundary part
-    // scaled to the step's target, for the chooser; window_seen gets the larger part itself.
+    // scaled to the step's target, for the chooser; window_seen gets the larger part itself
+    // (this rank's only, with fixed windows).
     // The groups themselves are placed by window_groups(), once the window is chosen.
     fill.assign(nb + nf, 0);
     isb.assign(nb + nf, 0);    // roots of the groups with a foreign node (as window_groups())
@@ -324,7 +325,9 @@ namespace Collide {
       const int at = isb[r] ? 1 : 0;
       l[at] = std::max(l[at], (double) fill[r]);
     }
-    ex.max(l, 2);
+    // With fixed windows (WindowSettings::nwindows) nothing is chosen from it: the figures are
+    // reduced with the step's after the windows, and the window needs no reduction here.
+    if (s.nwindows <= 0) ex.max(l, 2);
     window_seen = (long) std::max(l[0], l[1]);
     const double span_target =
         (double) (s.span_target > 0 ? std::min(step_target, s.span_target) : step_target);

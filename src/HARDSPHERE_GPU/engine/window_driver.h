@@ -37,7 +37,8 @@
    Collectives per window: one reduction per length tried (the largest local group and the
    largest part of a group spanning ranks that one rank sees, the latter weighed against
    WindowSettings::span_target since no rank sees such a group whole; over the view, also
-   whether some rank has a group it cannot see whole), one per pass of the check (repairs, old
+   whether some rank has a group it cannot see whole; without the view and with fixed windows
+   none), one per pass of the check (repairs, old
    path; without the view the event cap rides in it), one more where some rank cannot see a
    group of its own whole (whether a gather is left), and the gather where one is.  Per step
    two reductions before the windows and two after (the figures of WindowStats).  Tallies:
