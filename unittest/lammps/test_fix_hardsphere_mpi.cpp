@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <memory>
 #include <mpi.h>
 #include <regex>
 #include <string>
@@ -899,6 +900,24 @@ TEST(FixHardSphereMPI, WideGatherNeedsNoRoundsPassingEntriesOn)
   MPI_Barrier(MPI_COMM_WORLD);
 }
 
+// The fluid of run_dense() (`spanning gather`, 100 steps unless said) with the environment
+// variables `env` set for the run (a null value: unset), given back afterwards.
+using EnvList = std::initializer_list<std::pair<const char *, const char *>>;
+Spanning fluid_with(EnvList env, int steps = 100, int side = 12)
+{
+  std::vector<std::unique_ptr<ScopedEnv>> set;
+  for (const auto &e : env) set.push_back(std::make_unique<ScopedEnv>(e.first, e.second));
+  return run_dense(MPI_COMM_WORLD, "fluid", "parallel", steps, "2.5", "gather", "", side);
+}
+
+// Two runs of one input: the same trajectories and collisions to the bit.
+void expect_same_bits(const Spanning &a, const Spanning &b)
+{
+  EXPECT_EQ(max_abs_diff(a.x, b.x), 0.0);
+  EXPECT_EQ(max_abs_diff(a.v, b.v), 0.0);
+  EXPECT_EQ(a.collisions, b.collisions);
+}
+
 // The window bounds of the atoms next to another rank's on three ranks or more
 // (WindowSettings::edge_factor, by default half what they would be for those atoms and their
 // candidate partners): fewer atoms in groups that span ranks than with the same bounds
@@ -909,20 +928,9 @@ TEST(FixHardSphereMPI, SmallerBoundsAtTheRanksEdgesKeepTheBits)
   MPI_Comm_rank(MPI_COMM_WORLD, &me);
   MPI_Comm_size(MPI_COMM_WORLD, &np);
   if (np < 3) GTEST_SKIP() << "the bounds at the ranks' edges are for three ranks or more";
-  Spanning fixed, edge;
-  {
-    ScopedEnv k("HSGPU_EDGE_FACTOR", "1");
-    ScopedEnv h("HSGPU_EDGE_HOPS", "0");
-    fixed = run_dense(MPI_COMM_WORLD, "fluid", "parallel", 100, "2.5", "gather");
-  }
-  {
-    ScopedEnv k("HSGPU_EDGE_FACTOR", nullptr);
-    ScopedEnv h("HSGPU_EDGE_HOPS", nullptr);
-    edge = run_dense(MPI_COMM_WORLD, "fluid", "parallel", 100, "2.5", "gather");
-  }
-  EXPECT_EQ(max_abs_diff(edge.x, fixed.x), 0.0);
-  EXPECT_EQ(max_abs_diff(edge.v, fixed.v), 0.0);
-  EXPECT_EQ(edge.collisions, fixed.collisions);
+  const Spanning fixed = fluid_with({{"HSGPU_EDGE_FACTOR", "1"}, {"HSGPU_EDGE_HOPS", "0"}});
+  const Spanning edge = fluid_with({{"HSGPU_EDGE_FACTOR", nullptr}, {"HSGPU_EDGE_HOPS", nullptr}});
+  expect_same_bits(edge, fixed);
   EXPECT_GT(fixed.boundary, 20.0) << "atoms per step in spanning groups, the same bounds";
   EXPECT_LT(edge.boundary, 0.9 * fixed.boundary) << "atoms per step in spanning groups";
   if (me == 0)
@@ -942,18 +950,9 @@ TEST(FixHardSphereMPI, NeighbourMessagesKeepTheBitsWithFewerCollectives)
   MPI_Comm_rank(MPI_COMM_WORLD, &me);
   MPI_Comm_size(MPI_COMM_WORLD, &np);
   if (np < 3) GTEST_SKIP() << "the gathers go to the neighbouring ranks on three ranks or more";
-  Spanning barrier, nbr;
-  {
-    ScopedEnv e("HSGPU_NEIGHBOUR_EXCHANGE", "0");
-    barrier = run_dense(MPI_COMM_WORLD, "fluid", "parallel", 100, "2.5", "gather");
-  }
-  {
-    ScopedEnv e("HSGPU_NEIGHBOUR_EXCHANGE", nullptr);
-    nbr = run_dense(MPI_COMM_WORLD, "fluid", "parallel", 100, "2.5", "gather");
-  }
-  EXPECT_EQ(max_abs_diff(nbr.x, barrier.x), 0.0);
-  EXPECT_EQ(max_abs_diff(nbr.v, barrier.v), 0.0);
-  EXPECT_EQ(nbr.collisions, barrier.collisions);
+  const Spanning barrier = fluid_with({{"HSGPU_NEIGHBOUR_EXCHANGE", "0"}});
+  const Spanning nbr = fluid_with({{"HSGPU_NEIGHBOUR_EXCHANGE", nullptr}});
+  expect_same_bits(nbr, barrier);
   EXPECT_GT(nbr.neighbour, 0.5) << "gathers per step with the neighbouring ranks";
   EXPECT_LT(nbr.collectives, barrier.collectives - 1.0) << "collective operations per step";
   if (me == 0)
@@ -974,19 +973,11 @@ TEST(FixHardSphereMPI, GroupsSpanningRanksHaveATargetOfTheirOwn)
   MPI_Comm_rank(MPI_COMM_WORLD, &me);
   MPI_Comm_size(MPI_COMM_WORLD, &np);
   if (np < 2) GTEST_SKIP() << "groups span ranks on two ranks or more";
-  ScopedEnv t("HSGPU_TARGET_GROUP", "8000");
-  Spanning blind, own;
-  {
-    ScopedEnv e("HSGPU_SPAN_TARGET", "0");
-    blind = run_dense(MPI_COMM_WORLD, "fluid", "parallel", 40, "2.5", "gather", "", 24);
-  }
-  {
-    ScopedEnv e("HSGPU_SPAN_TARGET", nullptr);
-    own = run_dense(MPI_COMM_WORLD, "fluid", "parallel", 40, "2.5", "gather", "", 24);
-  }
-  EXPECT_EQ(max_abs_diff(own.x, blind.x), 0.0);
-  EXPECT_EQ(max_abs_diff(own.v, blind.v), 0.0);
-  EXPECT_EQ(own.collisions, blind.collisions);
+  const Spanning blind =
+      fluid_with({{"HSGPU_TARGET_GROUP", "8000"}, {"HSGPU_SPAN_TARGET", "0"}}, 40, 24);
+  const Spanning own =
+      fluid_with({{"HSGPU_TARGET_GROUP", "8000"}, {"HSGPU_SPAN_TARGET", nullptr}}, 40, 24);
+  expect_same_bits(own, blind);
   EXPECT_GT(blind.largest, 2000.0) << "most atoms per step in one group, the step's target";
   EXPECT_LT(own.largest, 1000.0) << "most atoms per step in one group, a target of their own";
   if (me == 0)
