@@ -16,13 +16,28 @@
 
 using namespace LAMMPS_NS;
 
-LammpsExchange::LammpsExchange(FixHardSphere *fix) : fix(fix), p2p(MPI_COMM_NULL)
+namespace {
+/* max_sum()'s reduction over doubles: the first value counts the maxima that follow it (the
+   same on every rank); the rest are summed. */
+void max_then_sum_op(void *in, void *inout, int *len, MPI_Datatype *)
+{
+  const double *a = static_cast<const double *>(in);
+  double *b = static_cast<double *>(inout);
+  const int nm = (int) a[0];
+  for (int k = 1; k < *len; ++k) b[k] = k <= nm ? std::max(a[k], b[k]) : a[k] + b[k];
+}
+}    // namespace
+
+LammpsExchange::LammpsExchange(FixHardSphere *fix) :
+    fix(fix), p2p(MPI_COMM_NULL), max_then_sum(MPI_OP_NULL)
 {
   MPI_Comm_dup(fix->world, &p2p);
+  MPI_Op_create(&max_then_sum_op, 1, &max_then_sum);
 }
 
 LammpsExchange::~LammpsExchange()
 {
+  if (max_then_sum != MPI_OP_NULL) MPI_Op_free(&max_then_sum);
   if (p2p != MPI_COMM_NULL) MPI_Comm_free(&p2p);
 }
 
@@ -255,4 +270,17 @@ void LammpsExchange::max(double *v, int n)
 void LammpsExchange::sum(long *v, int n)
 {
   fix->allreduce(MPI_IN_PLACE, v, n, MPI_LONG, MPI_SUM);
+}
+
+/* One reduction: the count of maxima, the maxima, then the sums, as doubles (exact below
+   2^53). */
+void LammpsExchange::max_sum(double *mx, int nm, long *sm, int ns)
+{
+  msbuf.assign(1 + nm + ns, 0.0);
+  msbuf[0] = nm;
+  for (int k = 0; k < nm; ++k) msbuf[1 + k] = mx[k];
+  for (int k = 0; k < ns; ++k) msbuf[1 + nm + k] = (double) sm[k];
+  fix->allreduce(MPI_IN_PLACE, msbuf.data(), 1 + nm + ns, MPI_DOUBLE, max_then_sum);
+  for (int k = 0; k < nm; ++k) mx[k] = msbuf[1 + k];
+  for (int k = 0; k < ns; ++k) sm[k] = (long) msbuf[1 + nm + k];
 }

@@ -38,6 +38,7 @@ class LammpsExchange : public HSGPU::Collide::Exchange {
                      std::vector<double> &recv) override;
   void max(double *v, int n) override;
   void sum(long *v, int n) override;
+  void max_sum(double *mx, int nm, long *sm, int ns) override;
 
   /// The neighbouring ranks of to_neighbours(): the owners of the foreign nodes `fnodes`,
   /// and the ranks whose foreign nodes this rank owns (one exchange with a consensus, so
@@ -51,6 +52,8 @@ class LammpsExchange : public HSGPU::Collide::Exchange {
  private:
   FixHardSphere *fix;
   MPI_Comm p2p;    // a copy of the world for to_ranks()'s messages, apart from LAMMPS's own
+  MPI_Op max_then_sum;    // max_sum(): the largest of the first values, the sum of the others
+  std::vector<double> msbuf;
   long p2p_calls = 0;
   std::vector<double> inbox;                   // to_ranks(): the messages as they came
   std::vector<std::array<long, 3>> inbox_parts;    // and their (source, offset, length)

@@ -1447,7 +1447,10 @@ namespace Collide {
     // (With the count: whether some rank tallies per-atom virials; a rank without bodies has
     // no buffer for them, and the results sent to owners must be the same size everywhere.)
     long counts[2] = {(long) nb, tally_virial ? 1L : 0L};
-    ex.sum(counts, 2);
+    // With them (the same reduction), the fastest drift speed.
+    double vmax = 0.0;
+    for (const Body &b : bodies) vmax = std::max(vmax, Contact::dot3(b.v, b.v));
+    ex.max_sum(&vmax, 1, counts, 2);
     const long target = WindowChooser::target(s, counts[0]);
     step_target = target;
     const bool virial_step = counts[1] > 0;
@@ -1456,9 +1459,6 @@ namespace Collide {
     // Every body's window bound assumes at least a quarter of the fastest drift speed: a body
     // at rest that is hit moves about as fast as what hit it, and a bound of zero would make
     // every such hit a repair (in a settled pile, of the whole pile).
-    double vmax = 0.0;
-    for (const Body &b : bodies) vmax = std::max(vmax, Contact::dot3(b.v, b.v));
-    ex.max(&vmax, 1);
     speed_floor = floor_fraction_or(s, 0.25) * std::sqrt(vmax);
     stats = WindowStats();
     stats_gathers = 0;
@@ -1728,10 +1728,9 @@ namespace Collide {
     stats.gathers = stats_gathers;
     stats.neighbour = stats_neighbour;
     stats.forwards = stats_forwards;
-    // The step's figures over all ranks: two reductions per step.
+    // The step's figures over all ranks: one reduction per step.
     double l = (double) largest_all;
-    ex.max(&l, 1);
-    ex.sum(acc, 5);
+    ex.max_sum(&l, 1, acc, 5);
     stats.largest_group = (long) l;
     stats.groups = acc[0];
     stats.repairs = acc[1];

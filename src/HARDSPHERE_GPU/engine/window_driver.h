@@ -41,7 +41,8 @@
    none), one per pass of the check (repairs, old
    path; without the view the event cap rides in it), one more where some rank cannot see a
    group of its own whole (whether a gather is left), and the gather where one is.  Per step
-   two reductions before the windows and two after (the figures of WindowStats).  Tallies:
+   one reduction before the windows (the bodies' count and fastest speed) and one after (the
+   figures of WindowStats), each of maxima and sums at once (Exchange::max_sum()).  Tallies:
    each group's once over the ranks, by the rank of its lowest-ID body among those whose owners
    resolve it.  A gather goes first to the neighbouring ranks only (on more than two ranks:
    each boundary body's state to the ranks that own a foreign node of its group), and, unless
@@ -151,6 +152,12 @@ namespace Collide {
     }
     virtual void max(double *v, int n) = 0;    // in place, over all ranks
     virtual void sum(long *v, int n) = 0;      // in place, over all ranks
+    /// Both at once (one reduction where the exchange can; each sum below 2^53).
+    virtual void max_sum(double *mx, int nm, long *sm, int ns)
+    {
+      max(mx, nm);
+      sum(sm, ns);
+    }
   };
 
   class SingleRank : public Exchange {
