@@ -756,7 +756,8 @@ Spanning run_dense(MPI_Comm comm, const std::string &kind, const std::string &or
   if (!logfile.empty()) lmp.commands({"log " + logfile});
   lmp.commands({"timestep 0.01", "thermo 0",
                 "fix avg all ave/time 1 " + ns + " " + ns +
-                    " f_hs[9] f_hs[11] f_hs[16] f_hs[27] f_hs[28] f_hs[29] f_hs[30] f_hs[24] f_hs[7]",
+                    " f_hs[9] f_hs[11] f_hs[16] f_hs[27] f_hs[28] f_hs[29] f_hs[30]"
+                    " f_hs[24] f_hs[7]",
                 "run " + ns});
   Spanning s;
   s.x = lmp.gather("x", 3);

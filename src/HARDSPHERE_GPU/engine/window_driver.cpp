@@ -304,8 +304,8 @@ namespace Collide {
     for (int q : fwin) uf.unite(fedges[q].body, nb + fedges[q].node);
     // The largest local group, and the largest part of a boundary group that this rank sees
     // (its local bodies and the foreign nodes joined to them).  A boundary group is weighed
-    // against a target of its own, WindowSettings::span_target: each rank sees only its part, and a
-    // group threading through many small domains, each part below the whole step's target,
+    // against a target of its own, WindowSettings::span_target: each rank sees only its part,
+    // and a group threading through many small domains, each part below the step's target,
     // can join most atoms (on 64 ranks of the fluid at 1728 atoms per rank, one group of 42000
     // of 110592 atoms, gathered everywhere; on 64 ranks at 32768 per rank, a run that filled
     // the host's memory).  Returns the larger of the two over all ranks, the boundary part

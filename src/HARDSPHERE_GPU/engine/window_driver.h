@@ -36,27 +36,26 @@
 
    Collectives per window: one reduction per length tried (the largest local group and the
    largest part of a group spanning ranks that one rank sees, the latter weighed against
-   WindowSettings::span_target since no rank sees such a group whole; over the view, also
-   whether some rank has a group it cannot see whole; without the view and with fixed windows
-   none), one per pass of the check (repairs, old
-   path; without the view the event cap rides in it), one more where some rank cannot see a
-   group of its own whole (whether a gather is left), and the gather where one is.  Per step
-   one reduction before the windows (the bodies' count and fastest speed) and one after (the
-   figures of WindowStats), each of maxima and sums at once (Exchange::max_sum()).  Tallies:
-   each group's once over the ranks, by the rank of its lowest-ID body among those whose owners
-   resolve it.  A gather goes first to the neighbouring ranks only (on more than two ranks:
-   each boundary body's state to the ranks that own a foreign node of its group), and, unless
-   some rank then lacks a partner of a body in a group of its own (a group reaching past its
-   neighbours: one reduction per round tells, while rounds pass the entries on to further
-   neighbours), each group is resolved by the rank of its lowest-ID body, which sends the other
-   owners their bodies' results; otherwise the gather is from every rank (Exchange::allgather),
-   and every rank resolves the groups that hold a body of its own.  The messages of the
-   gather, its rounds and the results go through Exchange::to_neighbours() where the exchange
-   has neighbouring ranks (one message to each, no consensus over all ranks; results whose
-   owner is not a neighbour of the resolving rank, said in the last round's reduction, go
+   WindowSettings::span_target since no rank sees such a group whole; over the view, also whether
+   some rank has a group it cannot see whole; without the view and with fixed windows none), one
+   per pass of the check (repairs, old path; without the view the event cap rides in it), one
+   more where some rank cannot see a group of its own whole (whether a gather is left), and the
+   gather where one is.  Per step one reduction before the windows (the bodies' count and fastest
+   speed) and one after (the figures of WindowStats), each of maxima and sums at once
+   (Exchange::max_sum()).  Tallies: each group's once over the ranks, by the rank of its
+   lowest-ID body among those whose owners resolve it.  A gather goes first to the neighbouring
+   ranks only (on more than two ranks: each boundary body's state to the ranks that own a foreign
+   node of its group), and, unless some rank then lacks a partner of a body in a group of its own
+   (a group reaching past its neighbours: one reduction per round tells, while rounds pass the
+   entries on to further neighbours), each group is resolved by the rank of its lowest-ID body,
+   which sends the other owners their bodies' results; otherwise the gather is from every rank
+   (Exchange::allgather), and every rank resolves the groups that hold a body of its own.  The
+   messages of the gather, its rounds and the results go through Exchange::to_neighbours() where
+   the exchange has neighbouring ranks (one message to each, no consensus over all ranks; results
+   whose owner is not a neighbour of the resolving rank, said in the last round's reduction, go
    through Exchange::to_ranks(), as everything does without neighbours).  After a fall-back to
-   the gather from every rank the next gathers go to every rank at once for a while (a pile
-   over many ranks is one group that no neighbourhood holds).
+   the gather from every rank the next gathers go to every rank at once for a while (a pile over
+   many ranks is one group that no neighbourhood holds).
 
    Event times depend only on the two bodies' states (core/trajectory.h), never on the window
    or group a pair is in, and every group sees its events in the global time order restricted
