@@ -236,13 +236,12 @@ void LammpsExchange::to_neighbours(const std::vector<int> &dest,
       fix->error->one(FLERR, "Fix hardsphere: too many atoms in groups that span ranks");
     nbr_msg[it - nbrs.begin()] = (int) k;
   }
-  static double nothing = 0.0;
+  static double nothing = 0.0;    // the buffer of an empty message
   nbr_req.assign(nn, MPI_REQUEST_NULL);
   for (int q = 0; q < nn; ++q) {
     const int k = nbr_msg[q];
-    double *buf = k >= 0 ? const_cast<double *>(send[k].data()) : &nothing;
     const int n = k >= 0 ? (int) send[k].size() : 0;
-    MPI_Isend(k >= 0 && n > 0 ? buf : &nothing, n, MPI_DOUBLE, nbrs[q], TAG, p2p, &nbr_req[q]);
+    MPI_Isend(n > 0 ? send[k].data() : &nothing, n, MPI_DOUBLE, nbrs[q], TAG, p2p, &nbr_req[q]);
   }
   recv.clear();
   double bytes = 0.0;

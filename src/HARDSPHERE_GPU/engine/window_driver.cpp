@@ -36,6 +36,17 @@ namespace Collide {
       return r == self || std::binary_search(nbrs.begin(), nbrs.end(), r);
     }
 
+    /// Point-to-point messages of a gather: to the neighbouring ranks where `neighbours`
+    /// (every destination one of them), else to any ranks; false where the exchange has no
+    /// such path.
+    bool messages(Exchange &ex, bool neighbours, const std::vector<int> &dest,
+                  const std::vector<std::vector<double>> &send, std::vector<double> &recv)
+    {
+      if (!neighbours) return ex.to_ranks(dest, send, recv);
+      ex.to_neighbours(dest, send, recv);
+      return true;
+    }
+
     constexpr double MARGIN = WINDOW_MARGIN;
     /// Doubles per body in the boundary exchange (pack_body; 3 more with friction: the spin),
     /// and per partner (id, shift).
@@ -410,10 +421,7 @@ namespace Collide {
     std::vector<double> &got = gotbuf;
     {
       ScopeTime st(times.gather_messages);
-      if (ex.neighbours())
-        ex.to_neighbours(ndest, nsend, got);
-      else if (!ex.to_ranks(ndest, nsend, got))
-        return false;
+      if (!messages(ex, ex.neighbours() != nullptr, ndest, nsend, got)) return false;
     }
     recv = send;
     recv.insert(recv.end(), got.begin(), got.end());
@@ -780,10 +788,7 @@ namespace Collide {
         std::vector<double> &got = gotbuf;
         {
           ScopeTime st(times.gather_messages);
-          if (nbrs)
-            ex.to_neighbours(ndest, nsend, got);
-          else
-            ex.to_ranks(ndest, nsend, got);
+          messages(ex, nbrs != nullptr, ndest, nsend, got);
         }
         if (!got.empty()) {
           ScopeTime st(times.gather_unpack);
@@ -922,10 +927,7 @@ namespace Collide {
                   o.begin() + at + 1 + nr);
     });
     std::vector<double> &got = gotbuf;
-    if (results_far)
-      ex.to_ranks(ndest, nsend, got);
-    else
-      ex.to_neighbours(ndest, nsend, got);
+    messages(ex, !results_far, ndest, nsend, got);
     long taken = 0;
     for (size_t off = 0; off + nval <= got.size(); off += nval) {
       const int k = gathered_index((long) got[off]);
