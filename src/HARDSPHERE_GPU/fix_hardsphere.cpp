@@ -34,6 +34,10 @@
                                            last step
                                         31 messages to neighbouring ranks, last step,
                                            summed over the ranks (ext)
+                                        32 rounds of the gathers of 30 passing entries on,
+                                           last step
+                                        33 passes gathered again from every rank after
+                                           those rounds, last step
 ------------------------------------------------------------------------------------- */
 
 #include "fix_hardsphere.h"
@@ -76,7 +80,7 @@ using namespace FixConst;
 namespace {
 
 const char *const FACES[HSGPU::Collide::NFACES] = {"xlo", "xhi", "ylo", "yhi", "zlo", "zhi"};
-constexpr int NVECTOR = 31;
+constexpr int NVECTOR = 33;
 constexpr int DEFAULT_MAXPUSH = 1000;    // overlap push passes before giving up
 constexpr int RESTART_FORMAT = 2;        // global restart data: -format, count, values
 
@@ -135,7 +139,8 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
     step_amax(0.0), vend2(0.0), maxevents(0), tlast(nullptr), n_step(0.0), n_total(0.0),
     n_wall(0.0), ke_total(0.0), max_events(0.0), events_total(0.0), n_redo(0.0), last_largest(0.0),
     last_groups(0.0), last_windows(0.0), last_boundary(0.0), last_gathers(0.0), last_spanning(0.0),
-    last_fallbacks(0.0), last_gathered(0.0), last_neighbour(0.0), t_search(0.0),
+    last_fallbacks(0.0), last_gathered(0.0), last_neighbour(0.0), last_forwards(0.0),
+    last_round_fails(0.0), t_search(0.0),
     t_resolve(0.0), t_step(0.0), n_repair(0.0), n_resident(0.0), n_declined(0.0),
     last_candidates(0.0), n_ghost_raise(0.0), bound_floor(0.0), exchange(nullptr), fwd_nval(0),
     n_push(0.0)
@@ -150,7 +155,7 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
   global_freq = 1;
   extvector = -1;
   extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1, 0, 1, 0, 0, 1, 0, 0,
-                             1, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 1, 0, 1, 0, 1};
+                             1, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 1, 0, 1, 0, 1, 0, 0};
   virial_global_flag = 1;
   virial_peratom_flag = 1;    // on the steps LAMMPS asks for it (compute stress/atom)
   thermo_virial = 1;
@@ -589,6 +594,16 @@ void FixHardSphere::init()
     neighbour_exchange = on;
     exchange->forget_neighbours();
   }
+  // The rounds of a gather to the neighbouring ranks passing entries on: a fixed number, with
+  // no reduction (WindowSettings::fixed_rounds); HSGPU_FIXED_ROUNDS=n sets how many, 0 the
+  // rounds decided by a reduction each, as before (for comparison; no result bit depends on
+  // it).  The same on all ranks, since the reductions must match.
+  if (const char *e = std::getenv("HSGPU_FIXED_ROUNDS")) {
+    wsettings.fixed_rounds = utils::inumeric(FLERR, e, false, lmp);
+    if (wsettings.fixed_rounds < 0)
+      error->all(FLERR, "Fix hardsphere: HSGPU_FIXED_ROUNDS must be >= 0");
+  }
+  MPI_Allreduce(MPI_IN_PLACE, &wsettings.fixed_rounds, 1, MPI_INT, MPI_MIN, world);
   // Tuning aid: HSGPU_EDGE_FACTOR and HSGPU_EDGE_HOPS set the window bounds of the atoms next to
   // another rank's (WindowSettings::edge_factor, edge_hops; no result bit depends on them).
   if (const char *e = std::getenv("HSGPU_EDGE_FACTOR"))
@@ -851,6 +866,10 @@ double FixHardSphere::compute_vector(int n)
     MPI_Allreduce(&comm_last.messages, &all, 1, MPI_DOUBLE, MPI_SUM, world);
     return all;
   }
+  case 31:
+    return last_forwards;
+  case 32:
+    return last_round_fails;
   default:
     return 0.0;
   }

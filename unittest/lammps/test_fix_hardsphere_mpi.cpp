@@ -703,6 +703,8 @@ struct Spanning {
   double neighbour = 0.0;    // f_hs[30]: gathers with the neighbouring ranks only
   double collectives = 0.0;    // f_hs[24]: collective operations per step
   double largest = 0.0;        // f_hs[7]: the most atoms resolved together, per step
+  double forwards = 0.0;       // f_hs[32]: rounds passing entries on, per step
+  double round_fails = 0.0;    // f_hs[33]: passes gathered again after those rounds, per step
 };
 
 // kind "fluid": 12^3 elastic spheres of diameter 1 on a simple cubic lattice at packing
@@ -757,7 +759,7 @@ Spanning run_dense(MPI_Comm comm, const std::string &kind, const std::string &or
   lmp.commands({"timestep 0.01", "thermo 0",
                 "fix avg all ave/time 1 " + ns + " " + ns +
                     " f_hs[9] f_hs[11] f_hs[16] f_hs[27] f_hs[28] f_hs[29] f_hs[30]"
-                    " f_hs[24] f_hs[7]",
+                    " f_hs[24] f_hs[7] f_hs[32] f_hs[33]",
                 "run " + ns});
   Spanning s;
   s.x = lmp.gather("x", 3);
@@ -774,6 +776,8 @@ Spanning run_dense(MPI_Comm comm, const std::string &kind, const std::string &or
   s.neighbour = lmp.fix_vector("avg", 6);
   s.collectives = lmp.fix_vector("avg", 7);
   s.largest = lmp.fix_vector("avg", 8);
+  s.forwards = lmp.fix_vector("avg", 9);
+  s.round_fails = lmp.fix_vector("avg", 10);
   return s;
 }
 
@@ -961,6 +965,47 @@ TEST(FixHardSphereMPI, NeighbourMessagesKeepTheBitsWithFewerCollectives)
                 "with messages to the neighbouring ranks, %.4g with a barrier; %.3g gathers per "
                 "step; the same %.0f collisions\n",
                 np, nbr.collectives, barrier.collectives, nbr.neighbour, nbr.collisions);
+  MPI_Barrier(MPI_COMM_WORLD);
+}
+
+// The rounds of a gather to the neighbouring ranks passing entries on are a fixed number (3),
+// with no reduction deciding each: whether every group came whole to the rank that resolves it
+// rides in the missed pairs' reduction.  Against rounds decided by a reduction each
+// (HSGPU_FIXED_ROUNDS=0): the same bits with fewer collective operations per step.  With one
+// round only, some groups do not come whole on four ranks or more: those passes are gathered
+// again from every rank (f_ID[33] > 0), and the bits stay the same.  (On three ranks, each a
+// neighbour of the others, one round brought every group whole here.)  The gathers' narrow
+// sends in every run (the wide ones need no rounds).
+TEST(FixHardSphereMPI, FixedRoundsNeedNoReductionAndKeepTheBits)
+{
+  int me = 0, np = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  if (np < 3) GTEST_SKIP() << "the gathers go to the neighbouring ranks on three ranks or more";
+  const Spanning decided =
+      fluid_with({{"HSGPU_FIXED_ROUNDS", "0"}, {"HSGPU_SPANNING_WIDE", nullptr}});
+  const Spanning fixed =
+      fluid_with({{"HSGPU_FIXED_ROUNDS", nullptr}, {"HSGPU_SPANNING_WIDE", nullptr}});
+  const Spanning one = fluid_with({{"HSGPU_FIXED_ROUNDS", "1"}, {"HSGPU_SPANNING_WIDE", nullptr}});
+  expect_same_bits(fixed, decided);
+  expect_same_bits(one, decided);
+  EXPECT_GT(fixed.neighbour, 0.5) << "gathers per step with the neighbouring ranks";
+  EXPECT_GT(decided.forwards, 0.1) << "rounds passing entries on per step";
+  EXPECT_NEAR(fixed.forwards, 3.0 * fixed.neighbour, 1e-9) << "three rounds per gather";
+  EXPECT_LT(fixed.round_fails, 0.05) << "passes gathered again per step, three rounds";
+  EXPECT_LT(fixed.collectives, decided.collectives - 0.5 * decided.forwards)
+      << "collective operations per step";
+  if (np >= 4) {
+    EXPECT_GT(one.round_fails, 0.0) << "passes gathered again per step, one round";
+  }
+  EXPECT_EQ(decided.round_fails, 0.0);
+  if (me == 0)
+    std::printf("[ MPI      ] %d ranks, fluid, 100 steps: %.4g collective operations per step "
+                "with three fixed rounds, %.4g with rounds decided by a reduction (%.3g rounds "
+                "per step); with one round %.3g passes per step gathered again; the same %.0f "
+                "collisions\n",
+                np, fixed.collectives, decided.collectives, decided.forwards, one.round_fails,
+                fixed.collisions);
   MPI_Barrier(MPI_COMM_WORLD);
 }
 

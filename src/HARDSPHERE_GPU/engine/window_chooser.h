@@ -53,6 +53,14 @@ namespace Collide {
     // rank sees the whole group (window_driver.cpp, window_edges()).  <= 0: against the step's
     // target like any group.  No result bit depends on it.
     long span_target = 256;
+    // On three ranks or more, gathers to the neighbouring ranks (Exchange::neighbours()): the
+    // rounds passing entries on to a group's further ranks are this many, always, each an
+    // exchange with the neighbours and no reduction (an entry goes to a rank once per gather);
+    // whether each group came whole to the rank that resolves it rides in the missed pairs'
+    // reduction, and where one did not, the window's boundary groups are gathered again from
+    // every rank.  0: rounds while a reduction says some rank lacks part of a group of its
+    // own (at most 3), as before.  No result bit depends on it.
+    int fixed_rounds = 3;
   };
 
   /// Relative margin on contact distances for round-off in the windows' join and check tests,

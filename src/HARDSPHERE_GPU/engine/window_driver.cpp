@@ -416,6 +416,7 @@ namespace Collide {
       }
       off += len;
     }
+    ndest_first = ndest;
     unknown_owner = false;
     for (const auto &rr : rootrank) unknown_owner |= rr.second < 0;
     std::vector<double> &got = gotbuf;
@@ -712,6 +713,7 @@ namespace Collide {
     // once, for 8 gathers and twice as many after each further such end (at most 64).  The
     // outcome is the same on every rank, and so is this choice.
     bool sparse = false;
+    fixed_gather = false;
     if (!gather_view && ex.nranks() > 2) {
       if (neighbour_skip > 0)
         --neighbour_skip;
@@ -750,13 +752,30 @@ namespace Collide {
       };
       // A group over three ranks or more may reach a rank through another one only: each
       // rank passes the entries it holds of such a group of its own on to the group's other
-      // ranks (the owners of its bodies), for at most FORWARD_ROUNDS rounds.
+      // ranks (the owners of its bodies).  incremental: an entry goes to a rank once per
+      // gather (sentmask, by the rank's place among the neighbours; the first exchange's
+      // entries marked as sent); else every round sends all of them again.
       constexpr int FORWARD_ROUNDS = 3;
       bool passed_on = false;
       const size_t first_ng = gentry.size();    // in ID order; unpack_more() adds after them
-      for (int round = 0;; ++round) {
-        sparse = !incomplete();
-        if (sparse || round == FORWARD_ROUNDS) break;
+      const bool fixed = nbrs && fixed_rounds > 0;
+      const bool incremental = fixed && nbrs->size() <= 64;
+      auto bit = [&](int d) {
+        return 1ULL << (std::lower_bound(nbrs->begin(), nbrs->end(), d) - nbrs->begin());
+      };
+      if (incremental) {
+        sentmask.assign(gentry.size(), 0ULL);
+        for (size_t k = 0; k < gentry.size(); ++k) {
+          if (gmine[k] < 0) continue;
+          const int r = uf.find(gmine[k]);
+          auto it = std::lower_bound(rootrank.begin(), rootrank.end(), std::make_pair(r, -1));
+          for (; it != rootrank.end() && it->first == r; ++it)
+            if (it->second >= 0 && it->second != ex.rank()) sentmask[k] |= bit(it->second);
+          if (gather_wide)
+            for (int d : ndest_first) sentmask[k] |= bit(d);
+        }
+      }
+      auto pass_on = [&]() {
         ++stats_forwards;
         std::vector<int> owners;
         sendto.clear();
@@ -775,9 +794,15 @@ namespace Collide {
             // (With neighbouring ranks, entries pass on to them only: a group's owners are
             // linked through neighbours, so more rounds reach the others.)
             if (d == ex.rank() || (nbrs && !is_neighbour(*nbrs, d, -1))) continue;
+            const unsigned long long db = incremental ? bit(d) : 0ULL;
             for (int m = gstart2[g]; m < gstart2[g + 1]; ++m) {
               const int k = gmembers2[m];
-              if (gathered_owner(k) != d) sendto.emplace_back(d, k);
+              if (gathered_owner(k) == d) continue;
+              if (incremental) {
+                if (sentmask[k] & db) continue;
+                sentmask[k] |= db;
+              }
+              sendto.emplace_back(d, k);
             }
           }
         }
@@ -796,7 +821,23 @@ namespace Collide {
           recv.insert(recv.end(), got.begin(), got.end());
           unpack_more(from);
           group_gathered(ngr);
+          if (incremental) sentmask.resize(gentry.size(), 0ULL);
           passed_on = true;
+        }
+      };
+      if (fixed) {
+        // A fixed number of rounds, with no reduction: whether every group came whole to the
+        // rank that resolves it is known after the results (span_fail), and told in the
+        // missed pairs' reduction; where one did not, the boundary groups of the window are
+        // gathered again from every rank (join_missed_boundary()).
+        // (The wide sends bring every group whole from the first exchange: no rounds.)
+        for (int round = 0; round < fixed_rounds && !gather_wide; ++round) pass_on();
+        results_far = false;
+      } else {
+        for (int round = 0;; ++round) {
+          sparse = !incomplete();
+          if (sparse || round == FORWARD_ROUNDS) break;
+          pass_on();
         }
       }
       if (sparse && passed_on) {
@@ -805,8 +846,9 @@ namespace Collide {
         reorder_gathered(mine_off, first_ng);
         group_gathered(ngr);
       }
+      fixed_gather = fixed;
     }
-    if (tried) {
+    if (tried && !fixed_gather) {
       neighbour_skip = sparse ? 0 : neighbour_backoff;
       neighbour_backoff = sparse ? 8 : std::min(2 * neighbour_backoff, 64);
     }
@@ -845,7 +887,30 @@ namespace Collide {
       for (int g = 0; g < ngr; ++g) {
         bool here = false;
         if (sparse) {
-          here = gmine[gmembers2[gstart2[g]]] >= 0;
+          const int first = gmembers2[gstart2[g]];
+          here = gmine[first] >= 0;
+          if (fixed_gather) {
+            // After the fixed rounds, a group is resolved by the rank of its first member
+            // where that rank holds it whole (then the first member is the group's lowest-ID
+            // body), which sends the results to the neighbouring ranks among its owners; an
+            // owner that is not a neighbour of that rank resolves it itself, from the same
+            // entries, where it holds it whole (the same result; results_to_owners() sends
+            // nothing for it).  Otherwise the window's boundary groups are gathered again
+            // (span_fail).
+            bool whole = true, holds = here;
+            for (int m = gstart2[g]; m < gstart2[g + 1]; ++m) {
+              whole &= !gmissing[gmembers2[m]];
+              holds |= gmine[gmembers2[m]] >= 0;
+            }
+            if (here && !whole) {
+              here = false;
+              span_fail = true;
+            } else if (!here && holds &&
+                       !is_neighbour(*ex.neighbours(), gathered_owner(first), ex.rank())) {
+              here = whole;
+              if (!whole) span_fail = true;
+            }
+          }
           if (!here)
             for (int m = gstart2[g]; m < gstart2[g + 1]; ++m) expect += gmine[gmembers2[m]] >= 0;
         } else {
@@ -899,7 +964,13 @@ namespace Collide {
                     wvir.begin() + 6 * (size_t) gmine[k]);
       }
     times.span_resolve += lap(clock);
-    if (sparse && results_to_owners(bodies, ngr, ex) != expect) results_missing = true;
+    if (sparse && results_to_owners(bodies, ngr, ex) != expect) {
+      if (fixed_gather)
+        span_fail = true;    // a group resolved nowhere, or whose resolver is not a neighbour
+      else
+        results_missing = true;
+    }
+    if (fixed_gather && unknown_owner) span_fail = true;
     times.span_results += lap(clock);
   }
 
@@ -911,12 +982,18 @@ namespace Collide {
   {
     const int nr = nres(spin), nval = 1 + nr + (virial_all ? 6 : 0);
     sendto.clear();
-    for (int g = 0; g < ngr; ++g)
+    for (int g = 0; g < ngr; ++g) {
+      // (After fixed rounds, a rank that is not a neighbour of the group's resolver resolves
+      // it itself; results go from the resolver, the rank of the first member, only.)
+      if (gmine[gmembers2[gstart2[g]]] < 0) continue;
       for (int m = gstart2[g]; m < gstart2[g + 1]; ++m) {
         const int k = gmembers2[m];
         const int r = gathered_owner(k);
-        if (r != ex.rank()) sendto.emplace_back(r, k);
+        if (r == ex.rank()) continue;
+        if (fixed_gather && !is_neighbour(*ex.neighbours(), r, -1)) continue;
+        sendto.emplace_back(r, k);
       }
+    }
     fill_destinations([&](std::vector<double> &o, int k) {
       const size_t at = o.size();
       o.resize(at + nval, 0.0);
@@ -1106,7 +1183,7 @@ namespace Collide {
   long WindowDriver::join_missed_boundary(std::vector<Body> &bodies, const std::vector<Edge> &edges,
                                           const std::vector<ForeignEdge> &fedges,
                                           const std::vector<ForeignNode> &foreign, Exchange &ex,
-                                          int &capped)
+                                          int &capped, bool &failed)
   {
     const int nb = (int) bodies.size();
     ex.to_foreign(lexc, 1, fexc);
@@ -1137,10 +1214,22 @@ namespace Collide {
       uf.unite(fe.body, nb + fe.node);
       ++joined;
     }
-    long c[2] = {joined, capped ? 1L : 0L};
-    ex.sum(c, 2);
+    long c[3] = {joined, capped ? 1L : 0L, span_fail ? 1L : 0L};
+    ex.sum(c, 3);
     capped = c[1] > 0 ? 1 : 0;
-    if (c[0] == 0) return 0;
+    // A group that did not come whole to its resolver after the fixed rounds (some rank):
+    // the window's boundary groups again, from the window start, gathered from every rank
+    // (and the next gathers too, as after a gather to the neighbours that ended so).
+    failed = c[2] > 0;
+    if (failed) {
+      ++stats_round_fails;
+      neighbour_skip = neighbour_backoff;
+      neighbour_backoff = std::min(2 * neighbour_backoff, 64);
+    } else if (fixed_gather) {
+      neighbour_backoff = 8;
+    }
+    span_fail = false;
+    if (c[0] == 0 && !failed) return 0;
     // Boundary roots anew; every body in a boundary group (old or new) back to the window
     // start; local groups that joined one leave the local tallies.
     const int nf = (int) foreign.size();
@@ -1400,10 +1489,12 @@ namespace Collide {
       auto join_clock = std::chrono::steady_clock::now();
       excursions(bodies, t1, &bsent);    // the others are as the local pass left them
       capped_all = capped_here();
-      const long joined = join_missed_boundary(bodies, edges, fedges, foreign, ex, capped_all);
+      bool failed = false;
+      const long joined =
+          join_missed_boundary(bodies, edges, fedges, foreign, ex, capped_all, failed);
       times.span_join += lap(join_clock);
       ++stats_gathers;
-      if (joined == 0) break;
+      if (joined == 0 && !failed) break;
       joined_all += joined;
     }
     times.spanning += lap(clock);
@@ -1466,7 +1557,10 @@ namespace Collide {
     stats_gathers = 0;
     stats_neighbour = 0;
     stats_forwards = 0;
+    stats_round_fails = 0;
+    span_fail = false;
     gather_wide = s.gather_wide;
+    fixed_rounds = s.fixed_rounds;
 
     // The view: local bodies [0, nb), foreign nodes [nb, nv); its candidate pairs with the
     // lower ID first.
@@ -1730,6 +1824,7 @@ namespace Collide {
     stats.gathers = stats_gathers;
     stats.neighbour = stats_neighbour;
     stats.forwards = stats_forwards;
+    stats.round_fails = stats_round_fails;
     // The step's figures over all ranks: one reduction per step.
     double l = (double) largest_all;
     ex.max_sum(&l, 1, acc, 5);

@@ -197,6 +197,9 @@ namespace Collide {
                                  // only (the ranks of the foreign nodes in the groups)
     long forwards = 0;           // rounds of such gathers passing entries on to a group's
                                  // further ranks (a group over three ranks or more)
+    long round_fails = 0;        // passes whose fixed rounds left some group short of its
+                                 // resolver (WindowSettings::fixed_rounds): gathered again
+                                 // from every rank
   };
 
   /// Where a rank's run() spent its time, seconds summed over the calls (wall clock; the
@@ -301,6 +304,15 @@ namespace Collide {
     bool unknown_owner = false;    // a foreign node's owner rank is not known
     long stats_neighbour = 0;
     long stats_forwards = 0;
+    long stats_round_fails = 0;
+    // Gathers to the neighbours with WindowSettings::fixed_rounds: this resolve_boundary()'s
+    // gather was one (fixed_gather); this rank could not resolve or receive some group of its
+    // own after the rounds (span_fail, told in join_missed_boundary()'s reduction); per
+    // gathered entry, the neighbouring ranks it went to (by their place in neighbours()).
+    int fixed_rounds = 0;
+    bool fixed_gather = false, span_fail = false;
+    std::vector<unsigned long long> sentmask;
+    std::vector<int> ndest_first;
     bool gather_wide = false;    // WindowSettings::gather_wide of this run()
     // The last gather to the neighbours: some owner of a body in a group resolved here is not
     // a neighbouring rank (or the exchange has none): results go out with a consensus.
@@ -389,7 +401,7 @@ namespace Collide {
     long join_missed_boundary(std::vector<Body> &bodies, const std::vector<Edge> &edges,
                               const std::vector<ForeignEdge> &fedges,
                               const std::vector<ForeignNode> &foreign, Exchange &ex,
-                              int &capped);
+                              int &capped, bool &failed);
   };
 
 }    // namespace Collide
