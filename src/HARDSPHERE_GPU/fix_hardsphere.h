@@ -458,7 +458,8 @@ class FixHardSphere : public Fix {
   void prepare(double drift_dt);
   int overlap_pass(double drift_dt, int pass, double &moved);
   void setup_backend();
-  bool step_exact();
+  bool step_exact(const double *figures = nullptr);
+  void exact_figures(double *loc);
   void view_completeness();
   void classify();
   void gather_boundary();

@@ -39,6 +39,8 @@ class LammpsExchange : public HSGPU::Collide::Exchange {
   void max(double *v, int n) override;
   void sum(long *v, int n) override;
   void max_sum(double *mx, int nm, long *sm, int ns) override;
+  /// The same with sums of doubles (the fix's own figures of a step; one reduction).
+  void max_sum(double *mx, int nm, double *sm, int ns);
 
   /// The neighbouring ranks of to_neighbours(): the owners of the foreign nodes `fnodes`,
   /// and the ranks whose foreign nodes this rank owns (one exchange with a consensus, so

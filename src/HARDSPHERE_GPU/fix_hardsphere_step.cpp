@@ -1091,7 +1091,9 @@ void FixHardSphere::setup(int vflag)
    excursion, and the step is redone.  Returns true when the step is exact.  An atom that moved
    further than the step's reach raises it to all that the ghost atoms cover; further than
    that stops the run (reach_error()). */
-bool FixHardSphere::step_exact()
+/* step_exact()'s figures on this rank: loc[0] the largest excursion of a body, loc[1] 1 where
+   some body moved further than its bound (bexc gets each body's excursion). */
+void FixHardSphere::exact_figures(double *loc)
 {
   const int nb = (int) bodies.size();
   bexc.assign(nb, 0.0);
@@ -1103,12 +1105,27 @@ bool FixHardSphere::step_exact()
   } else {
     for (int b = 0; b < nb; ++b) bexc[b] = std::sqrt(bodies[b].exc2);
   }
-  double loc[2] = {0.0, 0.0}, glob[2];
+  loc[0] = loc[1] = 0.0;
   for (int b = 0; b < nb; ++b) {
     loc[0] = std::max(loc[0], bexc[b]);
     if (bexc[b] > sbound[b]) loc[1] = 1.0;
   }
-  allreduce(loc, glob, 2, MPI_DOUBLE, MPI_MAX);
+}
+
+/* figures: exact_figures()' over all ranks where the caller reduced them already (with its
+   own figures), else reduced here. */
+bool FixHardSphere::step_exact(const double *figures)
+{
+  const int nb = (int) bodies.size();
+  double glob[2];
+  if (figures) {
+    glob[0] = figures[0];
+    glob[1] = figures[1];
+  } else {
+    double loc[2];
+    exact_figures(loc);
+    allreduce(loc, glob, 2, MPI_DOUBLE, MPI_MAX);
+  }
   if (glob[0] > reach) {
     // Beyond this step's reach: all that the ghosts cover, or stop.
     const double cap = ghost_reach();
@@ -1201,11 +1218,22 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
                         "resolved on another rank, did not arrive");
     double xe[3], ve[3];
     for (Body &b : bodies) HSGPU::Collide::end_of_step(b, dt, xe, ve);
-    sum_tallies(mine, all);
-    int capped = mine.capped;
-    allreduce(&capped, &all.capped, 1, MPI_INT, MPI_MAX);
+    // One reduction: whether the event cap stopped a group and step_exact()'s figures
+    // (maxima), the tallies (sums).
+    double mx[3] = {(double) mine.capped, 0.0, 0.0};
+    exact_figures(mx + 1);
+    double sm[5] = {(double) mine.pair, (double) mine.wall, (double) mine.rest,
+                    (double) mine.events, mine.ke_lost};
+    exchange->max_sum(mx, 3, sm, 5);
+    all = Tally();
+    all.capped = mx[0] > 0.0 ? 1 : 0;
+    all.pair = (long) sm[0];
+    all.wall = (long) sm[1];
+    all.rest = (long) sm[2];
+    all.events = (long) sm[3];
+    all.ke_lost = sm[4];
     n_repair += (double) stats.repairs;
-    const bool exact = all.capped || step_exact();
+    const bool exact = all.capped || step_exact(mx + 1);
     t_resolve += MPI_Wtime() - t0;
     if (exact) break;
     n_redo += 1.0;
@@ -1522,7 +1550,7 @@ void FixHardSphere::post_run()
   // the reduction after, writing them into the atoms' arrays), rank 0's own part of the first,
   // its longest single step, and the time copying x, v, f to rank 0's device and waiting for
   // the other ranks there.
-  constexpr int NT = 22, GPART = 13, GOWN = 18, GMOST = 19, GPUT = 20, GWAIT = 21;
+  constexpr int NT = 25, GPART = 13, GOWN = 18, GMOST = 19, GPUT = 20, GWAIT = 21;
   const double tmine[NT] = {dtm.edges,       dtm.groups,       dtm.local,
                             dtm.spanning,    t_search + r.t_search, dtm.span_pack,
                             dtm.span_gather, dtm.span_resolve, dtm.span_results,
@@ -1530,13 +1558,14 @@ void FixHardSphere::post_run()
                             dtm.gather_unpack, gath.t_part[0], gath.t_part[1],
                             gath.t_part[2],  gath.t_part[3],   gath.t_part[4],
                             gath.t_part[5],  gath.t_handles_most, gath.t_put,
-                            gath.t_wait};
+                            gath.t_wait,     dtm.edges_start,  dtm.edges_reduce,
+                            dtm.edges_ghosts};
   double tw[2 * NT], twx[2 * NT] = {0.0};
   for (int k = 0; k < NT; ++k) {
     tw[k] = -tmine[k];    // the least, as minus the most of the negatives
     tw[NT + k] = tmine[k];
   }
-  if (comm->nprocs > 1) MPI_Allreduce(tw, twx, 2 * NT, MPI_DOUBLE, MPI_MAX, world);
+  MPI_Allreduce(tw, twx, 2 * NT, MPI_DOUBLE, MPI_MAX, world);
   auto least = [&](int k) { return -1e3 * twx[k] / n; };
   auto most = [&](int k) { return 1e3 * twx[NT + k] / n; };
   gath.t_put = gath.t_wait = gath.t_handles_most = 0.0;
@@ -1582,15 +1611,20 @@ void FixHardSphere::post_run()
                    r.collectives / n, r.halos / n, messages / n, r.neighbour / n,
                    r.forwards / n, r.round_fails / n, 1e-3 * bytes / n, comm->nprocs, least(10),
                    most(10));
-  if (comm->nprocs > 1 && most(0) + most(1) + most(2) + most(3) > 0.0) {
+  if (most(0) + most(1) + most(2) + most(3) > 0.0) {
     utils::logmesg(lmp,
                    "Fix hardsphere: a rank's search and windows, ms per step (least to most of "
-                   "any rank): search {:.4g} to {:.4g}; window lengths tried {:.4g} to {:.4g}, "
-                   "groups {:.4g} to {:.4g}, groups resolved here {:.4g} to {:.4g}, groups "
-                   "spanning ranks (gathered, resolved, results sent back; waits included) "
-                   "{:.4g} to {:.4g}\n",
-                   least(4), most(4), least(0), most(0), least(1), most(1), least(2), most(2),
+                   "any rank): search {:.4g} to {:.4g}; window lengths tried {:.4g} to {:.4g} "
+                   "(of it: the windows' start points {:.4g} to {:.4g}, their ghost updates "
+                   "{:.4g} to {:.4g}, reductions {:.4g} to {:.4g}; waits included), groups "
+                   "{:.4g} to {:.4g}, groups resolved here {:.4g} to {:.4g}, groups spanning "
+                   "ranks (gathered, resolved, results sent back; waits included) {:.4g} to "
+                   "{:.4g}\n",
+                   least(4), most(4), least(0), most(0), least(22), most(22), least(24),
+                   most(24), least(23), most(23), least(1), most(1), least(2), most(2),
                    least(3), most(3));
+  }
+  if (comm->nprocs > 1 && most(0) + most(1) + most(2) + most(3) > 0.0) {
     utils::logmesg(lmp,
                    "Fix hardsphere: of the groups spanning ranks, ms per step: packing {:.4g} to "
                    "{:.4g}, the gather {:.4g} to {:.4g}, resolving {:.4g} to {:.4g}, results to "

@@ -60,7 +60,7 @@ namespace Collide {
     // reduction, and where one did not, the window's boundary groups are gathered again from
     // every rank.  0: rounds while a reduction says some rank lacks part of a group of its
     // own (at most 3), as before.  No result bit depends on it.
-    int fixed_rounds = 3;
+    int fixed_rounds = 2;
   };
 
   /// Relative margin on contact distances for round-off in the windows' join and check tests,

@@ -265,6 +265,7 @@ namespace Collide {
     const double delta = t1 - t0;
     const bool new_start = !start_cached;
     const bool all = s.join_all && s.nwindows == 1;
+    auto clock = std::chrono::steady_clock::now();
     start_points(bodies, nb, edges, !all, t0, s);
     wdelta = delta;
     bound.resize(nb);
@@ -278,7 +279,9 @@ namespace Collide {
         for (int d = 0; d < 3; ++d) wstate[(size_t) 4 * b + d] = bodies[b].w0[d];
         wstate[(size_t) 4 * b + 3] = rate[b];
       }
+      times.edges_start += lap(clock);
       ex.to_foreign(wstate, 4, fstate);
+      times.edges_ghosts += lap(clock);
       fgap.resize(fedges.size());
       for (size_t q = 0; !all && q < fedges.size(); ++q) {
         const ForeignEdge &fe = fedges[q];
@@ -287,6 +290,7 @@ namespace Collide {
                               s2);
       }
     }
+    times.edges_start += lap(clock);
 
     wedges.clear();
     ljoined.assign(edges.size(), all ? 1 : 0);
@@ -338,7 +342,10 @@ namespace Collide {
     }
     // With fixed windows (WindowSettings::nwindows) nothing is chosen from it: the figures are
     // reduced with the step's after the windows, and the window needs no reduction here.
-    if (s.nwindows <= 0) ex.max(l, 2);
+    if (s.nwindows <= 0) {
+      ScopeTime st(times.edges_reduce);
+      ex.max(l, 2);
+    }
     window_seen = (long) std::max(l[0], l[1]);
     const double span_target =
         (double) (s.span_target > 0 ? std::min(step_target, s.span_target) : step_target);
@@ -1179,7 +1186,10 @@ namespace Collide {
      foreign node and could have touched.  They are joined (their local groups become part of
      the boundary groups); every rank sees the same foreign pairs.  Returns the number joined
      over all ranks.  `capped` (whether the event cap stopped a group here) rides in the same
-     reduction: it comes back as whether it did on any rank. */
+     reduction: it comes back as whether it did on any rank; so does span_fail (a gather to the
+     neighbours after fixed rounds left a group of this rank short): `failed` says whether it
+     did on any rank, and then every boundary body goes back to the window start too, and the
+     next gathers go to every rank. */
   long WindowDriver::join_missed_boundary(std::vector<Body> &bodies, const std::vector<Edge> &edges,
                                           const std::vector<ForeignEdge> &fedges,
                                           const std::vector<ForeignNode> &foreign, Exchange &ex,

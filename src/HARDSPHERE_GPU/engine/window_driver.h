@@ -38,24 +38,32 @@
    largest part of a group spanning ranks that one rank sees, the latter weighed against
    WindowSettings::span_target since no rank sees such a group whole; over the view, also whether
    some rank has a group it cannot see whole; without the view and with fixed windows none), one
-   per pass of the check (repairs, old path; without the view the event cap rides in it), one
-   more where some rank cannot see a group of its own whole (whether a gather is left), and the
-   gather where one is.  Per step one reduction before the windows (the bodies' count and fastest
-   speed) and one after (the figures of WindowStats), each of maxima and sums at once
-   (Exchange::max_sum()).  Tallies: each group's once over the ranks, by the rank of its
-   lowest-ID body among those whose owners resolve it.  A gather goes first to the neighbouring
-   ranks only (on more than two ranks: each boundary body's state to the ranks that own a foreign
-   node of its group), and, unless some rank then lacks a partner of a body in a group of its own
-   (a group reaching past its neighbours: one reduction per round tells, while rounds pass the
-   entries on to further neighbours), each group is resolved by the rank of its lowest-ID body,
-   which sends the other owners their bodies' results; otherwise the gather is from every rank
-   (Exchange::allgather), and every rank resolves the groups that hold a body of its own.  The
-   messages of the gather, its rounds and the results go through Exchange::to_neighbours() where
-   the exchange has neighbouring ranks (one message to each, no consensus over all ranks; results
-   whose owner is not a neighbour of the resolving rank, said in the last round's reduction, go
-   through Exchange::to_ranks(), as everything does without neighbours).  After a fall-back to
-   the gather from every rank the next gathers go to every rank at once for a while (a pile over
-   many ranks is one group that no neighbourhood holds).
+   per pass of the check (repairs, old path; without the view the event cap rides in it, and
+   whether a gather to the neighbours fell short, below), and, without fixed rounds (below),
+   one more per pass and one per round of a gather to the neighbours.  Per step one reduction
+   before the windows (the bodies' count and fastest speed) and one after (the figures of
+   WindowStats), each of maxima and sums at once (Exchange::max_sum()).  Tallies: each group's
+   once over the ranks, by the rank of its lowest-ID body among those whose owners resolve it.
+   A gather goes first to the neighbouring ranks only (on more than two ranks: each boundary
+   body's state to the ranks that own a foreign node of its group); a group over three ranks
+   or more may reach a rank through another one only, so WindowSettings::fixed_rounds rounds
+   follow, each rank passing the entries it holds of such a group of its own on to the group's
+   other neighbouring ranks (each entry once per rank), with no reduction.  Then each group is
+   resolved by the rank of its lowest-ID body where that rank holds it whole, which sends the
+   results to the neighbouring ranks among its other owners; an owner that is not a neighbour
+   of that rank resolves the group itself where it holds it whole (the same entries, the same
+   result).  A rank that cannot resolve a group of its own, or lacks a result it expects, says
+   so in the check's reduction, and the window's boundary groups are resolved again from the
+   window start, gathered from every rank (Exchange::allgather; every rank resolves the groups
+   that hold a body of its own).  With fixed_rounds 0, rounds follow while a reduction says
+   that some rank lacks a partner of a body in a group of its own (at most 3, else the gather
+   from every rank), and results whose owner is not a neighbour of the resolving rank, said in
+   the last round's reduction, go through Exchange::to_ranks().  The messages of the gather,
+   its rounds and the results go through Exchange::to_neighbours() where the exchange has
+   neighbouring ranks (one message to each, no consensus over all ranks; through
+   Exchange::to_ranks() without neighbours).  After a fall-back to the gather from every rank
+   the next gathers go to every rank at once for a while (a pile over many ranks is one group
+   that no neighbourhood holds).
 
    Event times depend only on the two bodies' states (core/trajectory.h), never on the window
    or group a pair is in, and every group sees its events in the global time order restricted
@@ -206,6 +214,10 @@ namespace Collide {
   /// waits for other ranks inside the exchanges included where they fall).
   struct DriverTimes {
     double edges = 0.0;       // window lengths tried: start points, bounds, pairs joined
+    // ... of which: the window starts (start points, bound rates, the pairs' gaps), on
+    // several ranks the foreign nodes' start points (a ghost update, waits included), and the
+    // reductions of the lengths tried (waits included)
+    double edges_start = 0.0, edges_ghosts = 0.0, edges_reduce = 0.0;
     double groups = 0.0;      // groups of the window taken, the view's refresh
     double local = 0.0;       // groups resolved here: events, excursions, repairs
     double spanning = 0.0;    // groups spanning ranks: gathered, resolved, results sent back,
