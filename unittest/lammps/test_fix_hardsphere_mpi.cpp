@@ -969,12 +969,13 @@ TEST(FixHardSphereMPI, NeighbourMessagesKeepTheBitsWithFewerCollectives)
   MPI_Barrier(MPI_COMM_WORLD);
 }
 
-// The rounds of a gather to the neighbouring ranks passing entries on are a fixed number (2),
-// with no reduction deciding each: whether every group came whole to the rank that resolves it
-// rides in the missed pairs' reduction.  Against rounds decided by a reduction each
-// (HSGPU_FIXED_ROUNDS=0): the same bits with fewer collective operations per step.  With one
-// round only, some groups do not come whole on four ranks or more: those passes are gathered
-// again from every rank (f_ID[33] > 0), and the bits stay the same.  (On three ranks, each a
+// The rounds of a gather to the neighbouring ranks passing entries on are a fixed number (2,
+// one more after each pass they left short), with no reduction deciding each: whether every
+// group came whole to the rank that resolves it rides in the missed pairs' reduction.  Against
+// rounds decided by a reduction each (HSGPU_FIXED_ROUNDS=0): the same bits with fewer
+// collective operations per step.  Starting from one round, some groups do not come whole on
+// four ranks or more: those passes are gathered again from every rank (f_ID[33] > 0), and the
+// bits stay the same.  (On three ranks, each a
 // neighbour of the others, one round brought every group whole here.)  The gathers' narrow
 // sends in every run (the wide ones need no rounds).
 TEST(FixHardSphereMPI, FixedRoundsNeedNoReductionAndKeepTheBits)
@@ -992,7 +993,9 @@ TEST(FixHardSphereMPI, FixedRoundsNeedNoReductionAndKeepTheBits)
   expect_same_bits(one, decided);
   EXPECT_GT(fixed.neighbour, 0.5) << "gathers per step with the neighbouring ranks";
   EXPECT_GT(decided.forwards, 0.1) << "rounds passing entries on per step";
-  EXPECT_NEAR(fixed.forwards, 2.0 * fixed.neighbour, 1e-9) << "two rounds per gather";
+  // Two rounds per gather, one more after each pass they left short (a few at most).
+  EXPECT_GE(fixed.forwards, 2.0 * fixed.neighbour - 1e-9) << "rounds per step";
+  EXPECT_LE(fixed.forwards, 4.0 * fixed.neighbour + 1e-9) << "rounds per step";
   EXPECT_LT(fixed.round_fails, 0.05) << "passes gathered again per step, two rounds";
   EXPECT_LT(fixed.collectives, decided.collectives - 0.5 * decided.forwards)
       << "collective operations per step";

@@ -54,8 +54,9 @@ namespace Collide {
     // target like any group.  No result bit depends on it.
     long span_target = 256;
     // On three ranks or more, gathers to the neighbouring ranks (Exchange::neighbours()): the
-    // rounds passing entries on to a group's further ranks are this many, always, each an
-    // exchange with the neighbours and no reduction (an entry goes to a rank once per gather);
+    // rounds passing entries on to a group's further ranks are this many (one more after each
+    // pass they left short, up to 4), each an exchange with the neighbours and no reduction
+    // (an entry goes to a rank once per gather);
     // whether each group came whole to the rank that resolves it rides in the missed pairs'
     // reduction, and where one did not, the window's boundary groups are gathered again from
     // every rank.  0: rounds while a reduction says some rank lacks part of a group of its

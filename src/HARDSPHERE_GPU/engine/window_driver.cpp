@@ -1233,6 +1233,7 @@ namespace Collide {
     failed = c[2] > 0;
     if (failed) {
       ++stats_round_fails;
+      if (fixed_rounds > 0) fixed_rounds = std::max(fixed_rounds, std::min(fixed_rounds + 1, MAX_ROUNDS));
       neighbour_skip = neighbour_backoff;
       neighbour_backoff = std::min(2 * neighbour_backoff, 64);
     } else if (fixed_gather) {
@@ -1570,7 +1571,13 @@ namespace Collide {
     stats_round_fails = 0;
     span_fail = false;
     gather_wide = s.gather_wide;
-    fixed_rounds = s.fixed_rounds;
+    // The rounds of a gather start at the setting's and grow by one after each pass that they
+    // left short (up to MAX_ROUNDS): every rank knows of such a pass (a reduction tells it), so
+    // every rank makes the same rounds.
+    if (s.fixed_rounds != fixed_setting) {
+      fixed_setting = s.fixed_rounds;
+      fixed_rounds = s.fixed_rounds;
+    }
 
     // The view: local bodies [0, nb), foreign nodes [nb, nv); its candidate pairs with the
     // lower ID first.

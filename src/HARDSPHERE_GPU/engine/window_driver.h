@@ -47,8 +47,9 @@
    A gather goes first to the neighbouring ranks only (on more than two ranks: each boundary
    body's state to the ranks that own a foreign node of its group); a group over three ranks
    or more may reach a rank through another one only, so WindowSettings::fixed_rounds rounds
-   follow, each rank passing the entries it holds of such a group of its own on to the group's
-   other neighbouring ranks (each entry once per rank), with no reduction.  Then each group is
+   follow (one more after each pass they left short, up to MAX_ROUNDS: every rank knows of it),
+   each rank passing the entries it holds of such a group of its own on to the group's other
+   neighbouring ranks (each entry once per rank), with no reduction.  Then each group is
    resolved by the rank of its lowest-ID body where that rank holds it whole, which sends the
    results to the neighbouring ranks among its other owners; an owner that is not a neighbour
    of that rank resolves the group itself where it holds it whole (the same entries, the same
@@ -321,7 +322,9 @@ namespace Collide {
     // gather was one (fixed_gather); this rank could not resolve or receive some group of its
     // own after the rounds (span_fail, told in join_missed_boundary()'s reduction); per
     // gathered entry, the neighbouring ranks it went to (by their place in neighbours()).
-    int fixed_rounds = 0;
+    int fixed_rounds = 0;     // rounds of the next gather (from the setting, grown)
+    int fixed_setting = -1;   // WindowSettings::fixed_rounds that fixed_rounds started from
+    static constexpr int MAX_ROUNDS = 4;
     bool fixed_gather = false, span_fail = false;
     std::vector<unsigned long long> sentmask;
     std::vector<int> ndest_first;
