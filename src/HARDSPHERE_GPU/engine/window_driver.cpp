@@ -837,8 +837,11 @@ namespace Collide {
         // rank that resolves it is known after the results (span_fail), and told in the
         // missed pairs' reduction; where one did not, the boundary groups of the window are
         // gathered again from every rank (join_missed_boundary()).
-        // (The wide sends bring every group whole from the first exchange: no rounds.)
-        for (int round = 0; round < fixed_rounds && !gather_wide; ++round) pass_on();
+        // (The wide sends bring a group whole from the first exchange where it reaches no
+        // further than the neighbouring ranks: no rounds, but those grown after passes left
+        // short.)
+        const int rounds = gather_wide ? fixed_rounds - fixed_setting : fixed_rounds;
+        for (int round = 0; round < rounds; ++round) pass_on();
         results_far = false;
       } else {
         for (int round = 0;; ++round) {
