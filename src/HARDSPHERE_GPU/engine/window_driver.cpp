@@ -1236,7 +1236,7 @@ namespace Collide {
     failed = c[2] > 0;
     if (failed) {
       ++stats_round_fails;
-      if (fixed_rounds > 0) fixed_rounds = std::max(fixed_rounds, std::min(fixed_rounds + 1, MAX_ROUNDS));
+      if (fixed_rounds > 0 && fixed_rounds < MAX_ROUNDS) ++fixed_rounds;
       neighbour_skip = neighbour_backoff;
       neighbour_backoff = std::min(2 * neighbour_backoff, 64);
     } else if (fixed_gather) {
