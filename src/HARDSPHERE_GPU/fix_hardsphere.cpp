@@ -604,6 +604,16 @@ void FixHardSphere::init()
       error->all(FLERR, "Fix hardsphere: HSGPU_FIXED_ROUNDS must be >= 0");
   }
   MPI_Allreduce(MPI_IN_PLACE, &wsettings.fixed_rounds, 1, MPI_INT, MPI_MIN, world);
+  // Two passes of every window's check, the first with no reduction
+  // (WindowSettings::two_passes, on by default); HSGPU_TWO_PASSES=0 makes a reduction after
+  // every pass, as before (for comparison).  The same on all ranks.  No result bit depends
+  // on it.
+  {
+    const char *e = std::getenv("HSGPU_TWO_PASSES");
+    int on = (e ? utils::inumeric(FLERR, e, false, lmp) != 0 : wsettings.two_passes) ? 1 : 0;
+    MPI_Allreduce(MPI_IN_PLACE, &on, 1, MPI_INT, MPI_MIN, world);
+    wsettings.two_passes = on != 0;
+  }
   // Tuning aid: HSGPU_EDGE_FACTOR and HSGPU_EDGE_HOPS set the window bounds of the atoms next to
   // another rank's (WindowSettings::edge_factor, edge_hops; no result bit depends on them).
   if (const char *e = std::getenv("HSGPU_EDGE_FACTOR"))

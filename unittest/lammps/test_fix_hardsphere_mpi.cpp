@@ -1018,6 +1018,30 @@ TEST(FixHardSphereMPI, FixedRoundsNeedNoReductionAndKeepTheBits)
   MPI_Barrier(MPI_COMM_WORLD);
 }
 
+// With the halved bounds at the ranks' edges most windows take a second pass of the check for
+// missed pairs anyway: every window makes two (WindowSettings::two_passes), and only the
+// second one's check is a reduction.  Against a reduction after every pass
+// (HSGPU_TWO_PASSES=0): the same bits, the same repairs, fewer collective operations.
+TEST(FixHardSphereMPI, TwoPassesNeedOneReductionAndKeepTheBits)
+{
+  int me = 0, np = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  if (np < 3) GTEST_SKIP() << "the halved bounds at the ranks' edges are for three ranks or more";
+  const Spanning each = fluid_with({{"HSGPU_TWO_PASSES", "0"}});
+  const Spanning two = fluid_with({{"HSGPU_TWO_PASSES", nullptr}});
+  expect_same_bits(two, each);
+  EXPECT_GE(two.gathers, each.gathers) << "passes per step (each gathers the spanning groups)";
+  EXPECT_LT(two.collectives, each.collectives - 0.2) << "collective operations per step";
+  if (me == 0)
+    std::printf("[ MPI      ] %d ranks, fluid, 100 steps: %.4g collective operations per step "
+                "with two passes per window, %.4g with a reduction after each (%.3g and %.3g "
+                "gathers per step); the same %.0f collisions\n",
+                np, two.collectives, each.collectives, two.gathers, each.gathers,
+                two.collisions);
+  MPI_Barrier(MPI_COMM_WORLD);
+}
+
 // A window's length is chosen so that its largest group stays near a target; a group that
 // spans ranks is weighed by the part of it one rank sees, against a target of its own (256),
 // not the whole step's: with the step's target (here 8000 for a fluid of 13824 atoms) the parts

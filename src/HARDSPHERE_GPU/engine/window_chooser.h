@@ -62,6 +62,11 @@ namespace Collide {
     // every rank.  0: rounds while a reduction says some rank lacks part of a group of its
     // own (at most 3), as before.  No result bit depends on it.
     int fixed_rounds = 2;
+    // On three ranks or more with the halved bounds at the ranks' edges (edge_factor, where
+    // most windows take a second pass of the check for missed pairs anyway): every window makes
+    // two passes, and only the second one's check is a reduction (a third pass where it finds
+    // pairs).  false: a reduction after every pass.  No result bit depends on it.
+    bool two_passes = true;
   };
 
   /// Relative margin on contact distances for round-off in the windows' join and check tests,

@@ -1196,7 +1196,7 @@ namespace Collide {
   long WindowDriver::join_missed_boundary(std::vector<Body> &bodies, const std::vector<Edge> &edges,
                                           const std::vector<ForeignEdge> &fedges,
                                           const std::vector<ForeignNode> &foreign, Exchange &ex,
-                                          int &capped, bool &failed)
+                                          int &capped, bool &failed, bool reduce)
   {
     const int nb = (int) bodies.size();
     ex.to_foreign(lexc, 1, fexc);
@@ -1228,7 +1228,16 @@ namespace Collide {
       ++joined;
     }
     long c[3] = {joined, capped ? 1L : 0L, span_fail ? 1L : 0L};
-    ex.sum(c, 3);
+    if (!reduce) {
+      // A pass that another one follows whatever it found (WindowSettings::two_passes): the
+      // pairs joined here, every boundary body back to the window start, no reduction (what
+      // the pass resolved, its cap and its gathers' outcome are redone).
+      failed = false;
+      span_fail = false;
+      c[2] = 0;
+    } else {
+      ex.sum(c, 3);
+    }
     capped = c[1] > 0 ? 1 : 0;
     // A group that did not come whole to its resolver after the fixed rounds (some rank):
     // the window's boundary groups again, from the window start, gathered from every rank
@@ -1239,11 +1248,11 @@ namespace Collide {
       if (fixed_rounds > 0 && fixed_rounds < MAX_ROUNDS) ++fixed_rounds;
       neighbour_skip = neighbour_backoff;
       neighbour_backoff = std::min(2 * neighbour_backoff, 64);
-    } else if (fixed_gather) {
+    } else if (fixed_gather && reduce) {
       neighbour_backoff = 8;
     }
     span_fail = false;
-    if (c[0] == 0 && !failed) return 0;
+    if (reduce && c[0] == 0 && !failed) return 0;
     // Boundary roots anew; every body in a boundary group (old or new) back to the window
     // start; local groups that joined one leave the local tallies.
     const int nf = (int) foreign.size();
@@ -1496,6 +1505,13 @@ namespace Collide {
       return cp;
     };
     int capped_all = 0;
+    // With the halved bounds at the ranks' edges most windows take a second pass anyway: with
+    // WindowSettings::two_passes every window makes two, and only the second one's check is
+    // reduced (the first one's joined pairs are each rank's own, the same on both ranks of a
+    // pair across them; they are summed with the step's figures).
+    // (The same on every rank: a rank without bodies makes the same passes.)
+    const bool two = s.two_passes && edge_bounds;
+    long joined_here = 0;
     for (int pass = 0; ex.nranks() > 1; ++pass) {
       tbnd = tbnd_start;
       bl = bg = nbound = 0;
@@ -1504,10 +1520,15 @@ namespace Collide {
       excursions(bodies, t1, &bsent);    // the others are as the local pass left them
       capped_all = capped_here();
       bool failed = false;
+      const bool reduce = !(two && pass == 0);
       const long joined =
-          join_missed_boundary(bodies, edges, fedges, foreign, ex, capped_all, failed);
+          join_missed_boundary(bodies, edges, fedges, foreign, ex, capped_all, failed, reduce);
       times.span_join += lap(join_clock);
       ++stats_gathers;
+      if (!reduce) {
+        joined_here += joined;
+        continue;
+      }
       if (joined == 0 && !failed) break;
       joined_all += joined;
     }
@@ -1524,7 +1545,7 @@ namespace Collide {
     // The boundary groups' figures are counted by the rank of each one's lowest-ID body; the
     // joined pairs, the same on every rank, on rank 0.
     acc[0] += ngroups + bg;
-    acc[1] += repairs + (ex.rank() == 0 ? joined_all : 0);
+    acc[1] += repairs + (ex.rank() == 0 ? joined_all : 0) + joined_here;
     acc[2] += nbound;
     acc[4] += nbound;
   }
@@ -1591,7 +1612,9 @@ namespace Collide {
     // ranks or more, where the gathers go to the neighbouring ranks; not over the view, whose
     // foreign nodes' bounds each rank forms itself.
     near_edge.clear();
-    if (ex.nranks() > 2 && !use_view && s.edge_factor != 1.0 && !(s.join_all && s.nwindows == 1)) {
+    edge_bounds =
+        ex.nranks() > 2 && !use_view && s.edge_factor != 1.0 && !(s.join_all && s.nwindows == 1);
+    if (edge_bounds) {
       near_edge.assign(nb, 0);
       for (const ForeignEdge &fe : fedges) near_edge[fe.body] = 1;
       for (int h = 0; h < s.edge_hops; ++h) {

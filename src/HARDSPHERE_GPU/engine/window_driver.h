@@ -39,8 +39,9 @@
    WindowSettings::span_target since no rank sees such a group whole; over the view, also whether
    some rank has a group it cannot see whole; without the view and with fixed windows none), one
    per pass of the check (repairs, old path; without the view the event cap rides in it, and
-   whether a gather to the neighbours fell short, below), and, without fixed rounds (below),
-   one more per pass and one per round of a gather to the neighbours.  Per step one reduction
+   whether a gather to the neighbours fell short, below; with WindowSettings::two_passes the
+   first of two passes has none), and, without fixed rounds (below), one more per pass and one
+   per round of a gather to the neighbours.  Per step one reduction
    before the windows (the bodies' count and fastest speed) and one after (the figures of
    WindowStats), each of maxima and sums at once (Exchange::max_sum()).  Tallies: each group's
    once over the ranks, by the rank of its lowest-ID body among those whose owners resolve it.
@@ -261,6 +262,7 @@ namespace Collide {
    private:
     WindowChooser chooser;
     std::vector<char> near_edge, near_next;    // local body next to another rank's atoms
+    bool edge_bounds = false;    // this run() gives those bodies smaller bounds (every rank)
     double speed_floor = 0.0;    // f vmax of this step
     long step_target = 256;      // the chooser's target of this step (largest group wanted)
     long window_seen = 0;        // window_edges(): the largest group (part) over all ranks
@@ -416,7 +418,7 @@ namespace Collide {
     long join_missed_boundary(std::vector<Body> &bodies, const std::vector<Edge> &edges,
                               const std::vector<ForeignEdge> &fedges,
                               const std::vector<ForeignNode> &foreign, Exchange &ex,
-                              int &capped, bool &failed);
+                              int &capped, bool &failed, bool reduce = true);
   };
 
 }    // namespace Collide
