@@ -464,7 +464,8 @@ class FixHardSphere : public Fix {
   void classify();
   void gather_boundary();
   void resolve(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
-  void sum_tallies(const HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
+  void sum_tallies(const HSGPU::Collide::Tally &mine, int capped, HSGPU::Collide::Tally &all,
+                   double *figures = nullptr);
   void step_serial(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   void step_windows(HSGPU::Collide::Tally &mine, HSGPU::Collide::Tally &all);
   void apply_results(double dt, bool in_bodies);

@@ -273,20 +273,23 @@ void LammpsExchange::sum(long *v, int n)
 
 /* One reduction: the count of maxima, the maxima, then the sums, as doubles (exact below
    2^53). */
-void LammpsExchange::max_sum(double *mx, int nm, long *sm, int ns)
-{
-  std::vector<double> d(sm, sm + ns);
-  max_sum(mx, nm, d.data(), ns);
-  for (int k = 0; k < ns; ++k) sm[k] = (long) d[k];
-}
-
-void LammpsExchange::max_sum(double *mx, int nm, double *sm, int ns)
+template <class Sum> void LammpsExchange::max_then_sum_of(double *mx, int nm, Sum *sm, int ns)
 {
   msbuf.assign(1 + nm + ns, 0.0);
   msbuf[0] = nm;
   for (int k = 0; k < nm; ++k) msbuf[1 + k] = mx[k];
-  for (int k = 0; k < ns; ++k) msbuf[1 + nm + k] = sm[k];
+  for (int k = 0; k < ns; ++k) msbuf[1 + nm + k] = (double) sm[k];
   fix->allreduce(MPI_IN_PLACE, msbuf.data(), 1 + nm + ns, MPI_DOUBLE, max_then_sum);
   for (int k = 0; k < nm; ++k) mx[k] = msbuf[1 + k];
-  for (int k = 0; k < ns; ++k) sm[k] = msbuf[1 + nm + k];
+  for (int k = 0; k < ns; ++k) sm[k] = (Sum) msbuf[1 + nm + k];
+}
+
+void LammpsExchange::max_sum(double *mx, int nm, long *sm, int ns)
+{
+  max_then_sum_of(mx, nm, sm, ns);
+}
+
+void LammpsExchange::max_sum(double *mx, int nm, double *sm, int ns)
+{
+  max_then_sum_of(mx, nm, sm, ns);
 }

@@ -56,6 +56,7 @@ class LammpsExchange : public HSGPU::Collide::Exchange {
   MPI_Comm p2p;    // a copy of the world for to_ranks()'s messages, apart from LAMMPS's own
   MPI_Op max_then_sum;    // max_sum(): the largest of the first values, the sum of the others
   std::vector<double> msbuf;
+  template <class Sum> void max_then_sum_of(double *mx, int nm, Sum *sm, int ns);
   long p2p_calls = 0;
   std::vector<double> inbox;                   // to_ranks(): the messages as they came
   std::vector<std::array<long, 3>> inbox_parts;    // and their (source, offset, length)

@@ -974,22 +974,29 @@ void FixHardSphere::resolve(Tally &mine, Tally &all)
 
   mine = tl;
   if (comm->me == 0) mine.add(tg);
-  sum_tallies(mine, all);
-  int capped = tl.capped | tg.capped;
-  allreduce(&capped, &all.capped, 1, MPI_INT, MPI_MAX);
+  sum_tallies(mine, tl.capped | tg.capped, all);
 }
 
-/* Sums over the ranks of this rank's share of the tallies. */
-void FixHardSphere::sum_tallies(const Tally &mine, Tally &all)
+/* Sums over the ranks of this rank's share of the tallies, with whether the event cap stopped
+   a group on any rank (capped) and, where given, step_exact()'s figures (exact_figures(); their
+   maxima come back in place): one reduction. */
+void FixHardSphere::sum_tallies(const Tally &mine, int capped, Tally &all, double *figures)
 {
-  long cnt[4] = {mine.pair, mine.wall, mine.rest, mine.events}, gcnt[4];
-  allreduce(cnt, gcnt, 4, MPI_LONG, MPI_SUM);
+  double mx[3] = {(double) capped, figures ? figures[0] : 0.0, figures ? figures[1] : 0.0};
+  double sm[5] = {(double) mine.pair, (double) mine.wall, (double) mine.rest,
+                  (double) mine.events, mine.ke_lost};
+  exchange->max_sum(mx, figures ? 3 : 1, sm, 5);
   all = Tally();
-  all.pair = gcnt[0];
-  all.wall = gcnt[1];
-  all.rest = gcnt[2];
-  all.events = gcnt[3];
-  allreduce(&mine.ke_lost, &all.ke_lost, 1, MPI_DOUBLE, MPI_SUM);
+  all.capped = mx[0] > 0.0 ? 1 : 0;
+  all.pair = (long) sm[0];
+  all.wall = (long) sm[1];
+  all.rest = (long) sm[2];
+  all.events = (long) sm[3];
+  all.ke_lost = sm[4];
+  if (figures) {
+    figures[0] = mx[1];
+    figures[1] = mx[2];
+  }
 }
 
 /* Positions and half-step velocities of the atoms that had events, and everyone's time of
@@ -1218,22 +1225,12 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
                         "resolved on another rank, did not arrive");
     double xe[3], ve[3];
     for (Body &b : bodies) HSGPU::Collide::end_of_step(b, dt, xe, ve);
-    // One reduction: whether the event cap stopped a group and step_exact()'s figures
-    // (maxima), the tallies (sums).
-    double mx[3] = {(double) mine.capped, 0.0, 0.0};
-    exact_figures(mx + 1);
-    double sm[5] = {(double) mine.pair, (double) mine.wall, (double) mine.rest,
-                    (double) mine.events, mine.ke_lost};
-    exchange->max_sum(mx, 3, sm, 5);
-    all = Tally();
-    all.capped = mx[0] > 0.0 ? 1 : 0;
-    all.pair = (long) sm[0];
-    all.wall = (long) sm[1];
-    all.rest = (long) sm[2];
-    all.events = (long) sm[3];
-    all.ke_lost = sm[4];
+    // One reduction: the tallies, the event cap and step_exact()'s figures.
+    double figures[2];
+    exact_figures(figures);
+    sum_tallies(mine, mine.capped, all, figures);
     n_repair += (double) stats.repairs;
-    const bool exact = all.capped || step_exact(mx + 1);
+    const bool exact = all.capped || step_exact(figures);
     t_resolve += MPI_Wtime() - t0;
     if (exact) break;
     n_redo += 1.0;

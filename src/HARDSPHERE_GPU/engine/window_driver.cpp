@@ -423,7 +423,6 @@ namespace Collide {
       }
       off += len;
     }
-    ndest_first = ndest;
     unknown_owner = false;
     for (const auto &rr : rootrank) unknown_owner |= rr.second < 0;
     std::vector<double> &got = gotbuf;
@@ -778,8 +777,8 @@ namespace Collide {
           auto it = std::lower_bound(rootrank.begin(), rootrank.end(), std::make_pair(r, -1));
           for (; it != rootrank.end() && it->first == r; ++it)
             if (it->second >= 0 && it->second != ex.rank()) sentmask[k] |= bit(it->second);
-          if (gather_wide)
-            for (int d : ndest_first) sentmask[k] |= bit(d);
+          if (gather_wide)    // (ndest: still the first exchange's destinations)
+            for (int d : ndest) sentmask[k] |= bit(d);
         }
       }
       auto pass_on = [&]() {
@@ -1228,16 +1227,13 @@ namespace Collide {
       ++joined;
     }
     long c[3] = {joined, capped ? 1L : 0L, span_fail ? 1L : 0L};
-    if (!reduce) {
+    if (!reduce)
       // A pass that another one follows whatever it found (WindowSettings::two_passes): the
       // pairs joined here, every boundary body back to the window start, no reduction (what
       // the pass resolved, its cap and its gathers' outcome are redone).
-      failed = false;
-      span_fail = false;
       c[2] = 0;
-    } else {
+    else
       ex.sum(c, 3);
-    }
     capped = c[1] > 0 ? 1 : 0;
     // A group that did not come whole to its resolver after the fixed rounds (some rank):
     // the window's boundary groups again, from the window start, gathered from every rank

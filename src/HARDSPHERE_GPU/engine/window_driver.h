@@ -329,7 +329,6 @@ namespace Collide {
     static constexpr int MAX_ROUNDS = 4;
     bool fixed_gather = false, span_fail = false;
     std::vector<unsigned long long> sentmask;
-    std::vector<int> ndest_first;
     bool gather_wide = false;    // WindowSettings::gather_wide of this run()
     // The last gather to the neighbours: some owner of a body in a group resolved here is not
     // a neighbouring rank (or the exchange has none): results go out with a consensus.
