@@ -35,11 +35,13 @@ mpi_env() {
   export OMPI_MCA_rmaps_base_oversubscribe=1 OMPI_MCA_mpi_yield_when_idle=1
 }
 
-# build_plugin <2025|2021> <build-dir>: obtains LAMMPS (cached) and builds the plugin and tests.
+# build_plugin <2025|2021> <build-dir> [cmake options...]: obtains LAMMPS (cached) and builds
+# the plugin and tests.
 build_plugin() {
   local which=$1 dir=$2
+  shift 2
   say "building the plugin against LAMMPS $which in $dir"
-  cmake -S "$HSGPU_ROOT" -B "$dir" -G Ninja -D HSGPU_LAMMPS="$which" -D HSGPU_WARNINGS_AS_ERRORS=ON
+  cmake -S "$HSGPU_ROOT" -B "$dir" -G Ninja -D HSGPU_LAMMPS="$which" -D HSGPU_WARNINGS_AS_ERRORS=ON "$@"
   cmake --build "$dir" -j "$(nproc)"
 }
 
