@@ -38,6 +38,8 @@
                                            last step
                                         33 passes gathered again from every rank after
                                            those rounds, last step
+                                        34 1 where the last step's planned windows were
+                                           done again with a reduction per window
 ------------------------------------------------------------------------------------- */
 
 #include "fix_hardsphere.h"
@@ -80,7 +82,7 @@ using namespace FixConst;
 namespace {
 
 const char *const FACES[HSGPU::Collide::NFACES] = {"xlo", "xhi", "ylo", "yhi", "zlo", "zhi"};
-constexpr int NVECTOR = 33;
+constexpr int NVECTOR = 34;
 constexpr int DEFAULT_MAXPUSH = 1000;    // overlap push passes before giving up
 constexpr int RESTART_FORMAT = 2;        // global restart data: -format, count, values
 
@@ -140,7 +142,7 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
     n_wall(0.0), ke_total(0.0), max_events(0.0), events_total(0.0), n_redo(0.0), last_largest(0.0),
     last_groups(0.0), last_windows(0.0), last_boundary(0.0), last_gathers(0.0), last_spanning(0.0),
     last_fallbacks(0.0), last_gathered(0.0), last_neighbour(0.0), last_forwards(0.0),
-    last_round_fails(0.0), t_search(0.0),
+    last_round_fails(0.0), last_step_redos(0.0), t_search(0.0),
     t_resolve(0.0), t_step(0.0), n_repair(0.0), n_resident(0.0), n_declined(0.0),
     last_candidates(0.0), n_ghost_raise(0.0), bound_floor(0.0), exchange(nullptr), fwd_nval(0),
     n_push(0.0)
@@ -155,7 +157,7 @@ FixHardSphere::FixHardSphere(LAMMPS *lmp, int narg, char **arg) :
   global_freq = 1;
   extvector = -1;
   extlist = new int[NVECTOR]{1, 1, 1, 1, 0, 1, 0, 1, 0, 0, 1, 0, 0,
-                             1, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 1, 0, 1, 0, 1, 0, 0};
+                             1, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 1, 0, 1, 0, 1, 0, 0, 0};
   virial_global_flag = 1;
   virial_peratom_flag = 1;    // on the steps LAMMPS asks for it (compute stress/atom)
   thermo_virial = 1;
@@ -614,6 +616,16 @@ void FixHardSphere::init()
     MPI_Allreduce(MPI_IN_PLACE, &on, 1, MPI_INT, MPI_MIN, world);
     wsettings.two_passes = on != 0;
   }
+  // Planned windows, whose checks ride in the step's one reduction after them
+  // (WindowSettings::step_checks, on by default); HSGPU_STEP_CHECKS=0 makes a reduction per
+  // window length tried and per window's check, as before (for comparison).  The same on all
+  // ranks.  No result bit depends on it.
+  {
+    const char *e = std::getenv("HSGPU_STEP_CHECKS");
+    int on = (e ? utils::inumeric(FLERR, e, false, lmp) != 0 : wsettings.step_checks) ? 1 : 0;
+    MPI_Allreduce(MPI_IN_PLACE, &on, 1, MPI_INT, MPI_MIN, world);
+    wsettings.step_checks = on != 0;
+  }
   // Tuning aid: HSGPU_EDGE_FACTOR and HSGPU_EDGE_HOPS set the window bounds of the atoms next to
   // another rank's (WindowSettings::edge_factor, edge_hops; no result bit depends on them).
   if (const char *e = std::getenv("HSGPU_EDGE_FACTOR"))
@@ -880,6 +892,8 @@ double FixHardSphere::compute_vector(int n)
     return last_forwards;
   case 32:
     return last_round_fails;
+  case 33:
+    return last_step_redos;
   default:
     return 0.0;
   }

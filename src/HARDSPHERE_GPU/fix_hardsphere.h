@@ -138,6 +138,7 @@ class FixHardSphere : public Fix {
   double last_neighbour;     // of the gathers, those with the neighbouring ranks only, last step
   double last_forwards;      // rounds of those gathers passing entries on, last step
   double last_round_fails;   // passes gathered again from every rank after them, last step
+  double last_step_redos;    // 1: the last step's planned windows were done again
   double t_search;           // seconds spent in the candidate search, in total
   double t_resolve;          // seconds spent resolving, in total
   double t_step;             // seconds spent in the fix's step (post_integrate), in total
@@ -175,6 +176,7 @@ class FixHardSphere : public Fix {
     double t_comm = 0.0;    // seconds in the communication above (waits for other ranks too)
     double forwards = 0.0;  // rounds of gathers passing entries on (WindowStats::forwards)
     double round_fails = 0.0;    // passes gathered again after them (WindowStats::round_fails)
+    double step_redos = 0.0;     // steps of planned windows done again (WindowStats::step_redos)
     bigint declined[5] = {0, 0, 0, 0, 0};                  // steps handed back, by ResidentOutcome
     bigint moved = 0, checked = 0;    // device steps with x, v moved there, or checked (gpu/keep)
     bigint ahead = 0, dropped = 0;    // steps run ahead during LAMMPS's integration, dropped

@@ -1195,6 +1195,7 @@ void FixHardSphere::step_serial(Tally &mine, Tally &all)
   last_boundary = comm->nprocs > 1 ? (double) atom->natoms : 0.0;
   last_gathers = comm->nprocs > 1 ? 1.0 : 0.0;
   last_spanning = last_fallbacks = last_neighbour = last_forwards = last_round_fails = 0.0;
+  last_step_redos = 0.0;
   last_gathered = last_boundary;
 }
 
@@ -1248,6 +1249,7 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
   last_neighbour = (double) stats.neighbour;
   last_forwards = (double) stats.forwards;
   last_round_fails = (double) stats.round_fails;
+  last_step_redos = (double) stats.step_redos;
 }
 
 bool FixHardSphere::resident_usable() const
@@ -1355,7 +1357,7 @@ void FixHardSphere::count_resident(const HSGPU::Collide::ResidentReport &report)
   last_windows = (double) report.stats.windows;
   last_boundary = 0.0;
   last_gathers = last_spanning = last_fallbacks = last_gathered = last_neighbour = 0.0;
-  last_forwards = last_round_fails = 0.0;
+  last_forwards = last_round_fails = last_step_redos = 0.0;
 }
 
 /* The whole step on the device (engine/resident_step.h), where there is a resident step:
@@ -1516,6 +1518,7 @@ void FixHardSphere::post_integrate()
   run_sum.neighbour += last_neighbour;
   run_sum.forwards += last_forwards;
   run_sum.round_fails += last_round_fails;
+  run_sum.step_redos += last_step_redos;
   comm_last = comm_step;
   run_sum.collectives += comm_step.collectives;
   run_sum.halos += comm_step.halos;
@@ -1604,10 +1607,11 @@ void FixHardSphere::post_run()
                    "the neighbouring ranks only, {:.3g} rounds passing entries on, {:.3g} "
                    "gathered again from every rank after them), {:.4g} kB received by all {} "
                    "ranks together; {:.4g} to {:.4g} ms per step in it on a rank (waiting for "
-                   "the other ranks included)\n",
+                   "the other ranks included); {:.0f} steps of planned windows done again with a "
+                   "reduction per window\n",
                    r.collectives / n, r.halos / n, messages / n, r.neighbour / n,
                    r.forwards / n, r.round_fails / n, 1e-3 * bytes / n, comm->nprocs, least(10),
-                   most(10));
+                   most(10), r.step_redos);
   if (most(0) + most(1) + most(2) + most(3) > 0.0) {
     utils::logmesg(lmp,
                    "Fix hardsphere: a rank's search and windows, ms per step (least to most of "

@@ -706,6 +706,7 @@ struct Spanning {
   double largest = 0.0;        // f_hs[7]: the most atoms resolved together, per step
   double forwards = 0.0;       // f_hs[32]: rounds passing entries on, per step
   double round_fails = 0.0;    // f_hs[33]: passes gathered again after those rounds, per step
+  double step_redos = 0.0;     // f_hs[34]: steps of planned windows done again, per step
 };
 
 // kind "fluid": 12^3 elastic spheres of diameter 1 on a simple cubic lattice at packing
@@ -760,7 +761,7 @@ Spanning run_dense(MPI_Comm comm, const std::string &kind, const std::string &or
   lmp.commands({"timestep 0.01", "thermo 0",
                 "fix avg all ave/time 1 " + ns + " " + ns +
                     " f_hs[9] f_hs[11] f_hs[16] f_hs[27] f_hs[28] f_hs[29] f_hs[30]"
-                    " f_hs[24] f_hs[7] f_hs[32] f_hs[33]",
+                    " f_hs[24] f_hs[7] f_hs[32] f_hs[33] f_hs[34]",
                 "run " + ns});
   Spanning s;
   s.x = lmp.gather("x", 3);
@@ -779,6 +780,7 @@ Spanning run_dense(MPI_Comm comm, const std::string &kind, const std::string &or
   s.largest = lmp.fix_vector("avg", 8);
   s.forwards = lmp.fix_vector("avg", 9);
   s.round_fails = lmp.fix_vector("avg", 10);
+  s.step_redos = lmp.fix_vector("avg", 11);
   return s;
 }
 
@@ -1028,8 +1030,9 @@ TEST(FixHardSphereMPI, TwoPassesNeedOneReductionAndKeepTheBits)
   MPI_Comm_rank(MPI_COMM_WORLD, &me);
   MPI_Comm_size(MPI_COMM_WORLD, &np);
   if (np < 3) GTEST_SKIP() << "the halved bounds at the ranks' edges are for three ranks or more";
-  const Spanning each = fluid_with({{"HSGPU_TWO_PASSES", "0"}});
-  const Spanning two = fluid_with({{"HSGPU_TWO_PASSES", nullptr}});
+  // (A reduction per window in both, as without planned windows.)
+  const Spanning each = fluid_with({{"HSGPU_TWO_PASSES", "0"}, {"HSGPU_STEP_CHECKS", "0"}});
+  const Spanning two = fluid_with({{"HSGPU_TWO_PASSES", nullptr}, {"HSGPU_STEP_CHECKS", "0"}});
   expect_same_bits(two, each);
   EXPECT_GE(two.gathers, each.gathers) << "passes per step (each gathers the spanning groups)";
   EXPECT_LT(two.collectives, each.collectives - 0.2) << "collective operations per step";
@@ -1039,6 +1042,44 @@ TEST(FixHardSphereMPI, TwoPassesNeedOneReductionAndKeepTheBits)
                 "gathers per step); the same %.0f collisions\n",
                 np, two.collectives, each.collectives, two.gathers, each.gathers,
                 two.collisions);
+  MPI_Barrier(MPI_COMM_WORLD);
+}
+
+// Planned windows (WindowSettings::step_checks): a step's windows take no reduction, their
+// lengths planned from the previous steps, their checks on each rank until the step's one
+// reduction after them.  Against a reduction per window length tried and per window's check
+// (HSGPU_STEP_CHECKS=0): the same bits with more than one collective operation fewer per window
+// of the latter.
+// Starting the gathers from one round passing entries on, some groups do not come whole on four
+// ranks or more: those steps are done again with a reduction per window (f_ID[34]), and the
+// bits stay the same.
+TEST(FixHardSphereMPI, PlannedWindowsNeedNoReductionAndKeepTheBits)
+{
+  int me = 0, np = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  if (np < 3) GTEST_SKIP() << "planned windows are for three ranks or more";
+  const Spanning each = fluid_with({{"HSGPU_STEP_CHECKS", "0"}, {"HSGPU_FIXED_ROUNDS", nullptr}});
+  const Spanning planned =
+      fluid_with({{"HSGPU_STEP_CHECKS", nullptr}, {"HSGPU_FIXED_ROUNDS", nullptr}});
+  const Spanning again = fluid_with({{"HSGPU_STEP_CHECKS", nullptr}, {"HSGPU_FIXED_ROUNDS", "1"}});
+  expect_same_bits(planned, each);
+  expect_same_bits(again, each);
+  EXPECT_GT(planned.neighbour, 0.5) << "gathers per step with the neighbouring ranks";
+  EXPECT_LT(planned.collectives, each.collectives - each.windows)
+      << "collective operations per step";
+  EXPECT_LT(planned.step_redos, 0.05) << "steps done again, per step";
+  EXPECT_EQ(each.step_redos, 0.0);
+  if (np >= 4) {
+    EXPECT_GT(again.step_redos, 0.0) << "steps done again per step, one round";
+  }
+  if (me == 0)
+    std::printf("[ MPI      ] %d ranks, fluid, 100 steps: %.4g collective operations per step "
+                "with planned windows (%.3g per step), %.4g with a reduction per window (%.3g); "
+                "%.3g steps per step done again from one round passing entries on; the same %.0f "
+                "collisions\n",
+                np, planned.collectives, planned.windows, each.collectives, each.windows,
+                again.step_redos, planned.collisions);
   MPI_Barrier(MPI_COMM_WORLD);
 }
 

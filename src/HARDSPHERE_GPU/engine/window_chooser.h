@@ -7,7 +7,9 @@
    exceeds the target, down to dt / 16; if none gets there (a pile, whose touching bodies stay
    joined however short the window), the longest length within 5/4 of the smallest largest
    group is taken, the rest of the step is one window, and the next steps try one halving
-   only, all lengths every 16 steps.  Which windows are chosen never changes a result bit
+   only, all lengths every 16 steps.  Planned windows (several ranks, no reduction inside a
+   step): all windows of a step as long, that length following the previous steps' largest
+   groups (planned_end(), plan_feedback()).  Which windows are chosen never changes a result bit
    (window_driver.h says why); it changes only how much work runs side by side.
 
    No LAMMPS, MPI or CUDA here. */
@@ -67,6 +69,16 @@ namespace Collide {
     // two passes, and only the second one's check is a reduction (a third pass where it finds
     // pairs).  false: a reduction after every pass.  No result bit depends on it.
     bool two_passes = true;
+    // On three ranks or more with two passes, fixed rounds and the halved bounds at the ranks'
+    // edges: the windows of a step take no reduction at all.  Their lengths are planned from
+    // the previous steps' figures (WindowChooser::planned_end()); a window's second pass
+    // checks for missed pairs on its rank only, and whether it found any, a group that did not
+    // come whole to its resolver or the event cap stopping a group rides in the step's one
+    // reduction after the windows.  Where some rank's did, the step is done again from its
+    // start with a reduction per window, as without this (WindowStats::step_redos), and the
+    // next steps too (8, twice as many after each further such step, at most 64).  false: a
+    // reduction per window length tried and per window's check.  No result bit depends on it.
+    bool step_checks = true;
   };
 
   /// Relative margin on contact distances for round-off in the windows' join and check tests,
@@ -164,16 +176,50 @@ namespace Collide {
       return t1;
     }
 
+    /// Planned windows (WindowSettings::step_checks; every rank plans the same): the end of
+    /// the window that starts at t0, all windows of a step as long as the plan (a power of two
+    /// times dt, from 1/16 to 1), the last one cut short by what is left of the step.
+    double planned_end(double t0, double dt) const
+    {
+      const double t1 = t0 + plan * dt;
+      return t1 > dt * (1.0 - 1e-9) ? dt : t1;
+    }
+
+    /// After a planned step: `ratio` is its largest group over the target, over all ranks and
+    /// windows.  Above 1 the windows halve (at most to dt / 16), and the length they had is
+    /// not planned again for PLAN_MEMORY steps (a group can grow from tens of atoms to most of
+    /// the system when the windows double: the fluid at packing fraction 0.4); below 1/4 they
+    /// double (at most to dt).
+    void plan_feedback(double ratio)
+    {
+      if (plan_age > 0 && --plan_age == 0) plan_limit = 2.0;
+      if (ratio > 1.0 && plan > MIN_WINDOW) {
+        plan_limit = plan;
+        plan *= 0.5;
+        plan_age = PLAN_MEMORY;
+      } else if (ratio < 0.25 && 2.0 * plan <= 1.0 && 2.0 * plan < plan_limit) {
+        plan *= 2.0;
+      }
+    }
+
+    /// The planned windows' length, as a fraction of dt.
+    double planned() const { return plan; }
+
    private:
     /// Shortest adaptive window, as a fraction of dt.
     static constexpr double MIN_WINDOW = 1.0 / 16.0;
     /// Steps after a window that could not meet the target before all lengths are tried again.
     static constexpr int STUCK_RETRY = 16;
+    /// Steps that planned windows keep from the length that last made too large a group.
+    static constexpr int PLAN_MEMORY = 256;
 
     double last_delta = 0.0;    // length of the last window, for the next one's guess
     double guess = 0.0;         // length of the next window to try
     double growth = 2.0;        // next guess = growth x the last window's length
     int stuck_left = 0;         // > 0: a recent window could not meet the target
+    double plan = 0.5;          // planned windows' length / dt (planned_end())
+    double plan_limit = 2.0;    // the length that last made too large a group (2: none)
+    int plan_age = 0;           // steps left that plan_limit holds
     std::vector<std::pair<double, long>> tried;    // (window end, largest group) tried
   };
 

@@ -340,9 +340,10 @@ namespace Collide {
       const int at = isb[r] ? 1 : 0;
       l[at] = std::max(l[at], (double) fill[r]);
     }
-    // With fixed windows (WindowSettings::nwindows) nothing is chosen from it: the figures are
-    // reduced with the step's after the windows, and the window needs no reduction here.
-    if (s.nwindows <= 0) {
+    // With fixed or planned windows (WindowSettings::nwindows, step_checks) nothing is chosen
+    // from it: the figures are reduced with the step's after the windows, and the window needs
+    // no reduction here.
+    if (s.nwindows <= 0 && !planned) {
       ScopeTime st(times.edges_reduce);
       ex.max(l, 2);
     }
@@ -1195,7 +1196,7 @@ namespace Collide {
   long WindowDriver::join_missed_boundary(std::vector<Body> &bodies, const std::vector<Edge> &edges,
                                           const std::vector<ForeignEdge> &fedges,
                                           const std::vector<ForeignNode> &foreign, Exchange &ex,
-                                          int &capped, bool &failed, bool reduce)
+                                          int &capped, bool &failed, Check check)
   {
     const int nb = (int) bodies.size();
     ex.to_foreign(lexc, 1, fexc);
@@ -1227,28 +1228,36 @@ namespace Collide {
       ++joined;
     }
     long c[3] = {joined, capped ? 1L : 0L, span_fail ? 1L : 0L};
-    if (!reduce)
+    if (check == Check::Local)
       // A pass that another one follows whatever it found (WindowSettings::two_passes): the
       // pairs joined here, every boundary body back to the window start, no reduction (what
       // the pass resolved, its cap and its gathers' outcome are redone).
       c[2] = 0;
-    else
+    else if (check == Check::Reduced)
       ex.sum(c, 3);
     capped = c[1] > 0 ? 1 : 0;
+    if (check == Check::Kept) {
+      // This rank's outcome only (planned windows): the caller notes it for the step's
+      // reduction; nothing here changes what the next gathers do.
+      failed = c[2] > 0;
+      span_fail = false;
+      if (c[0] == 0 && !failed) return 0;
+      c[2] = 0;
+    }
     // A group that did not come whole to its resolver after the fixed rounds (some rank):
     // the window's boundary groups again, from the window start, gathered from every rank
     // (and the next gathers too, as after a gather to the neighbours that ended so).
-    failed = c[2] > 0;
-    if (failed) {
+    failed = failed || c[2] > 0;
+    if (c[2] > 0) {
       ++stats_round_fails;
       if (fixed_rounds > 0 && fixed_rounds < MAX_ROUNDS) ++fixed_rounds;
       neighbour_skip = neighbour_backoff;
       neighbour_backoff = std::min(2 * neighbour_backoff, 64);
-    } else if (fixed_gather && reduce) {
+    } else if (fixed_gather && check == Check::Reduced) {
       neighbour_backoff = 8;
     }
     span_fail = false;
-    if (reduce && c[0] == 0 && !failed) return 0;
+    if (check == Check::Reduced && c[0] == 0 && !failed) return 0;
     // Boundary roots anew; every body in a boundary group (old or new) back to the window
     // start; local groups that joined one leave the local tallies.
     const int nf = (int) foreign.size();
@@ -1468,6 +1477,11 @@ namespace Collide {
     window_groups(nb, (int) foreign.size());
     times.groups += lap(clock);
     // Local groups, each with its own tally (a repair replaces a group's tally).
+    // (Planned windows keep the first window's snapshot, the step start, in step_start.)
+    if (planned && t0 > 0.0 && !step_kept) {
+      snap.swap(step_start);
+      step_kept = true;
+    }
     if (snap.capacity() < bodies.size()) snap.reserve(bodies.size() + bodies.size() / 8 + 64);
     snap.assign(bodies.begin(), bodies.end());
     group_of.assign(nb, -1);
@@ -1508,6 +1522,8 @@ namespace Collide {
     // (The same on every rank: a rank without bodies makes the same passes.)
     const bool two = s.two_passes && edge_bounds;
     long joined_here = 0;
+    // With planned windows (two passes) the second pass's outcome stays on the rank: where it
+    // joined pairs, or something else went wrong, the step is done again (run()).
     for (int pass = 0; ex.nranks() > 1; ++pass) {
       tbnd = tbnd_start;
       bl = bg = nbound = 0;
@@ -1516,14 +1532,20 @@ namespace Collide {
       excursions(bodies, t1, &bsent);    // the others are as the local pass left them
       capped_all = capped_here();
       bool failed = false;
-      const bool reduce = !(two && pass == 0);
+      const Check check = two && pass == 0 ? Check::Local : planned ? Check::Kept : Check::Reduced;
       const long joined =
-          join_missed_boundary(bodies, edges, fedges, foreign, ex, capped_all, failed, reduce);
+          join_missed_boundary(bodies, edges, fedges, foreign, ex, capped_all, failed, check);
       times.span_join += lap(join_clock);
       ++stats_gathers;
-      if (!reduce) {
+      if (check == Check::Local) {
         joined_here += joined;
         continue;
+      }
+      if (check == Check::Kept) {
+        joined_here += joined;
+        if (joined > 0 || failed || capped_all) planned_bad = true;
+        capped_all = 0;    // the next windows go on; the step is done again anyway
+        break;
       }
       if (joined == 0 && !failed) break;
       joined_all += joined;
@@ -1553,7 +1575,6 @@ namespace Collide {
                          Tally &mine, WindowStats &stats, double *body_virial,
                          const std::vector<Edge> *foreign_pairs)
   {
-    const double dt = p.dt;
     tally_virial = body_virial != nullptr;
     body_virial_out = body_virial;
     spin = p.friction != 0;    // rough spheres: the exchanges carry the spins
@@ -1645,12 +1666,54 @@ namespace Collide {
     for (int k = 0; k < nv - nb; ++k) vcomplete[nb + k] = foreign[vnode[k]].complete ? 1 : 0;
     bodies.resize(nv);
 
+    // Planned windows (WindowSettings::step_checks): no reduction until the step's after
+    // them; where that says some rank's went wrong, the step again from its start, with a
+    // reduction per window, and so the next steps (the outcome is the same on every rank, and
+    // so is this choice).
+    planned = s.step_checks && ex.nranks() > 2 && edge_bounds && s.two_passes &&
+              s.fixed_rounds > 0 && ex.neighbours() != nullptr && neighbour_skip == 0 &&
+              planned_skip == 0 && !use_view;
+    if (planned_skip > 0) --planned_skip;
+    run_windows(bodies, edges, fedges, foreign, p, s, backend, ex, mine, stats, nb, nv, use_view,
+                target);
+    if (planned && planned_bad) {
+      // The first window's snapshot (its start points are made again).
+      const std::vector<Body> &start = step_kept ? step_start : snap;
+      bodies.assign(start.begin(), start.end());
+      if (tally_virial) std::fill(body_virial, body_virial + 6 * (size_t) nb, 0.0);
+      planned = false;
+      planned_skip = planned_backoff;
+      planned_backoff = std::min(2 * planned_backoff, 64);
+      run_windows(bodies, edges, fedges, foreign, p, s, backend, ex, mine, stats, nb, nv, use_view,
+                  target);
+      stats.step_redos = 1;
+    } else if (planned) {
+      planned_backoff = 8;
+    }
+  }
+
+  /* The windows of the step (run() has set the step up), and the step's one reduction after
+     them.  With planned windows (`planned`) no reduction before it. */
+  void WindowDriver::run_windows(std::vector<Body> &bodies, const std::vector<Edge> &edges,
+                                 const std::vector<ForeignEdge> &fedges,
+                                 const std::vector<ForeignNode> &foreign, const Params &p,
+                                 const WindowSettings &s, CollisionBackend &backend, Exchange &ex,
+                                 Tally &mine, WindowStats &stats, int nb, int nv, bool use_view,
+                                 long target)
+  {
+    const double dt = p.dt;
+    const int nf = (int) foreign.size();
+    const bool virial_step = virial_all;
+    double *body_virial = body_virial_out;
     Tally tloc, tbnd;
     // groups, repairs, boundary bodies, spanning groups resolved here, bodies gathered
     long acc[5] = {0, 0, 0, 0, 0};
     long largest_all = 0;
     double t0 = 0.0;
-    chooser.start_step(dt);
+    planned_bad = false;
+    planned_ratio = 0.0;
+    step_kept = false;
+    if (!planned) chooser.start_step(dt);
     int k = 0;
     bool whole = true;    // the next refresh sends whole bodies
     while (t0 < dt && !use_view) {
@@ -1658,10 +1721,17 @@ namespace Collide {
       long largest;
       start_cached = false;
       auto clock = std::chrono::steady_clock::now();
-      const double t1 = chooser.next(
-          t0, k, dt, s, target,
-          [&](double t) { return window_edges(bodies, edges, fedges, foreign, t0, t, s, ex); },
-          largest);
+      auto try_window = [&](double t) {
+        return window_edges(bodies, edges, fedges, foreign, t0, t, s, ex);
+      };
+      double t1;
+      if (planned) {
+        t1 = s.nwindows > 0 ? chooser.first_end(t0, k, dt, s) : chooser.planned_end(t0, dt);
+        largest = try_window(t1);
+        planned_ratio = std::max(planned_ratio, (double) largest / (double) target);
+      } else {
+        t1 = chooser.next(t0, k, dt, s, target, try_window, largest);
+      }
       times.edges += lap(clock);
       largest_all = std::max(largest_all, window_seen);
       int capped = 0;
@@ -1864,10 +1934,15 @@ namespace Collide {
     stats.neighbour = stats_neighbour;
     stats.forwards = stats_forwards;
     stats.round_fails = stats_round_fails;
-    // The step's figures over all ranks: one reduction per step.
-    double l = (double) largest_all;
-    ex.max_sum(&l, 1, acc, 5);
-    stats.largest_group = (long) l;
+    // The step's figures over all ranks: one reduction per step (with, for planned windows,
+    // whether some rank's went wrong, and their largest group over the target).
+    if (planned && results_missing) planned_bad = true;    // the step again will tell
+    double l[3] = {(double) largest_all, planned_bad ? 1.0 : 0.0, planned_ratio};
+    ex.max_sum(l, 3, acc, 5);
+    planned_bad = l[1] > 0.0;
+    if (planned && !planned_bad) chooser.plan_feedback(l[2]);
+    if (planned_bad) results_missing = false;
+    stats.largest_group = (long) l[0];
     stats.groups = acc[0];
     stats.repairs = acc[1];
     stats.boundary_bodies = acc[2];

@@ -41,7 +41,12 @@
    per pass of the check (repairs, old path; without the view the event cap rides in it, and
    whether a gather to the neighbours fell short, below; with WindowSettings::two_passes the
    first of two passes has none), and, without fixed rounds (below), one more per pass and one
-   per round of a gather to the neighbours.  Per step one reduction
+   per round of a gather to the neighbours.  With planned windows (WindowSettings::step_checks:
+   three ranks or more, two passes, fixed rounds, the halved bounds at the ranks' edges) none
+   at all: the lengths come from the previous steps (WindowChooser::planned_end()), each
+   window's last check stays on its rank, and what went wrong anywhere rides in the reduction
+   after the windows; then the step is done again from its start with the reductions per
+   window (run()).  Per step one reduction
    before the windows (the bodies' count and fastest speed) and one after (the figures of
    WindowStats), each of maxima and sums at once (Exchange::max_sum()).  Tallies: each group's
    once over the ranks, by the rank of its lowest-ID body among those whose owners resolve it.
@@ -210,6 +215,8 @@ namespace Collide {
     long round_fails = 0;        // passes whose fixed rounds left some group short of its
                                  // resolver (WindowSettings::fixed_rounds): gathered again
                                  // from every rank
+    long step_redos = 0;         // steps of planned windows done again with a reduction per
+                                 // window (WindowSettings::step_checks): 0 or 1 per run()
   };
 
   /// Where a rank's run() spent its time, seconds summed over the calls (wall clock; the
@@ -335,6 +342,24 @@ namespace Collide {
     bool results_far = true;
     int neighbour_skip = 0;       // gathers left that go to every rank at once
     int neighbour_backoff = 8;    // the next such skip
+    // Planned windows (WindowSettings::step_checks): this run() tries them (the same on every
+    // rank); what went wrong in them on this rank (a missed pair after a window's second pass,
+    // a group short of its resolver, the event cap, a result not where it belongs); the
+    // largest group over the target in them; the steps left that take a reduction per window
+    // and the next such skip; the bodies at the step start (the first window's snapshot, kept
+    // here once a second window starts: step_kept).
+    bool planned = false;
+    bool planned_bad = false;
+    double planned_ratio = 0.0;
+    int planned_skip = 0;
+    int planned_backoff = 8;
+    std::vector<Body> step_start;
+    bool step_kept = false;
+    /// How join_missed_boundary() ends a pass: Local, the first of two passes (no reduction;
+    /// the boundary groups go back to the window start whatever it found); Reduced, a
+    /// reduction over all ranks; Kept, a planned window's last pass (its outcome kept in
+    /// planned_bad for the step's reduction).
+    enum class Check { Local, Reduced, Kept };
     std::vector<int> bsent;    // local bodies of the boundary groups of the last gather
     std::vector<double> send, recv;
     // per-atom virial (when run() is given body_virial): of the window so far, per local
@@ -417,7 +442,12 @@ namespace Collide {
     long join_missed_boundary(std::vector<Body> &bodies, const std::vector<Edge> &edges,
                               const std::vector<ForeignEdge> &fedges,
                               const std::vector<ForeignNode> &foreign, Exchange &ex,
-                              int &capped, bool &failed, bool reduce = true);
+                              int &capped, bool &failed, Check check = Check::Reduced);
+    void run_windows(std::vector<Body> &bodies, const std::vector<Edge> &edges,
+                     const std::vector<ForeignEdge> &fedges,
+                     const std::vector<ForeignNode> &foreign, const Params &p,
+                     const WindowSettings &s, CollisionBackend &backend, Exchange &ex,
+                     Tally &mine, WindowStats &stats, int nb, int nv, bool use_view, long target);
   };
 
 }    // namespace Collide
