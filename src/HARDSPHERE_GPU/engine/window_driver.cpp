@@ -1031,6 +1031,48 @@ namespace Collide {
     return taken;
   }
 
+  /* The bodies at the window start (snap), for the repairs and the passes over the boundary
+     groups.  Without walls a body with no window partner cannot have an event in the window's
+     first resolution: only the bodies with one are copied (sparse_snap; most of a fluid's are
+     alone in a window), with every body's exc2; window_start() gives the others from their
+     current state the first time it is asked for them.  whole: every body. */
+  void WindowDriver::take_snapshot(const std::vector<Body> &bodies,
+                                   const std::vector<ForeignEdge> &fedges, const Params &p,
+                                   bool whole)
+  {
+    const int nb = (int) bodies.size();
+    if (snap.capacity() < bodies.size()) snap.reserve(bodies.size() + bodies.size() / 8 + 64);
+    for (int f = 0; f < NFACES && !whole; ++f) whole = p.walls.on[f] != 0;
+    sparse_snap = !whole;
+    if (whole) {
+      snap.assign(bodies.begin(), bodies.end());
+      return;
+    }
+    snap.resize(bodies.size());
+    snapped.assign(nb, 0);
+    start_exc2.resize(nb);
+    for (const Edge &e : wedges) snapped[e.i] = snapped[e.j] = 1;
+    for (int q : fwin) snapped[fedges[q].body] = 1;
+    for (int b = 0; b < nb; ++b) {
+      start_exc2[b] = bodies[b].exc2;
+      if (snapped[b]) snap[b] = bodies[b];
+    }
+  }
+
+  /* Body b at the window start.  One not copied by take_snapshot() has had no event in the
+     window before the first call for it (every path that resolves a body again takes its start
+     from here first): its state then but for what excursions() noted. */
+  const Body &WindowDriver::window_start(const std::vector<Body> &bodies, int b)
+  {
+    if (sparse_snap && !snapped[b]) {
+      snap[b] = bodies[b];
+      snap[b].exc2 = start_exc2[b];
+      snap[b].wexc2 = 0.0;    // as start_points() left it
+      snapped[b] = 1;
+    }
+    return snap[b];
+  }
+
   /* Each local body's largest distance from its window start point, at the window end t1
      (only the bodies in `only`, when given: those resolved again since the last call). */
   void WindowDriver::excursions(std::vector<Body> &bodies, double t1, const std::vector<int> *only)
@@ -1095,7 +1137,7 @@ namespace Collide {
     }
     for (size_t m = 0; m < submembers.size(); ++m) {
       const int b = submembers[m];
-      sub[m] = snap[b];
+      sub[m] = window_start(bodies, b);
       sub[m].owner = b;
       sub_of[b] = (int) m;
     }
@@ -1272,7 +1314,7 @@ namespace Collide {
       }
       group_of[b] = -1;
       const int owner = bodies[b].owner;
-      bodies[b] = snap[b];
+      bodies[b] = window_start(bodies, b);
       bodies[b].owner = owner;
       if (tally_virial)
         std::fill(wvir.begin() + 6 * (size_t) b, wvir.begin() + 6 * (size_t) (b + 1), 0.0);
@@ -1477,13 +1519,13 @@ namespace Collide {
     window_groups(nb, (int) foreign.size());
     times.groups += lap(clock);
     // Local groups, each with its own tally (a repair replaces a group's tally).
-    // (Planned windows keep the first window's snapshot, the step start, in step_start.)
+    // (Planned windows keep the first window's snapshot, the step start, in step_start: that
+    // one whole.)
     if (planned && t0 > 0.0 && !step_kept) {
       snap.swap(step_start);
       step_kept = true;
     }
-    if (snap.capacity() < bodies.size()) snap.reserve(bodies.size() + bodies.size() / 8 + 64);
-    snap.assign(bodies.begin(), bodies.end());
+    take_snapshot(bodies, fedges, p, planned && t0 == 0.0);
     group_of.assign(nb, -1);
     for (int g = 0; g < nlocal_groups; ++g)
       for (int m = gstart[g]; m < gstart[g + 1]; ++m) group_of[gmembers[m]] = g;
@@ -1766,6 +1808,7 @@ namespace Collide {
         // The groups resolved here, each with its own tally (a repair replaces a group's).
         if (snap.capacity() < bodies.size()) snap.reserve(bodies.size() + bodies.size() / 8 + 64);
         snap.assign(bodies.begin(), bodies.end());
+        sparse_snap = false;
         const int ng = nlocal_groups;
         group_of.resize(nv);
         for (int g = 0; g < ng; ++g)

@@ -274,7 +274,12 @@ namespace Collide {
     long step_target = 256;      // the chooser's target of this step (largest group wanted)
     long window_seen = 0;        // window_edges(): the largest group (part) over all ranks
     // per window
-    std::vector<Body> snap;       // the bodies at the window start
+    std::vector<Body> snap;       // the bodies at the window start (take_snapshot())
+    // sparse_snap: snap holds only the bodies flagged in snapped (and start_exc2 every body's
+    // exc2); window_start() gives any body
+    bool sparse_snap = false;
+    std::vector<char> snapped;
+    std::vector<double> start_exc2;
     std::vector<Tally> gtally;    // tally of each local group
     std::vector<int> group_of;    // local body -> local group, -1 in a boundary group
     UnionFind merged;             // local groups merged by repairs
@@ -434,6 +439,9 @@ namespace Collide {
                           CollisionBackend &backend, Exchange &ex, Tally &tb, long &largest,
                           long &ngroups, long &nbound);
     void excursions(std::vector<Body> &bodies, double t1, const std::vector<int> *only = nullptr);
+    void take_snapshot(const std::vector<Body> &bodies, const std::vector<ForeignEdge> &fedges,
+                       const Params &p, bool whole);
+    const Body &window_start(const std::vector<Body> &bodies, int b);
     int redo_merged(std::vector<Body> &bodies, const std::vector<Edge> &cand,
                     const std::vector<int> &failing, const Params &p, double t1,
                     CollisionBackend &backend, long events_before, long &repairs, long &largest);
