@@ -189,17 +189,32 @@ namespace Collide {
     /// windows.  Above 1 the windows halve (at most to dt / 16), and the length they had is
     /// not planned again for PLAN_MEMORY steps (a group can grow from tens of atoms to most of
     /// the system when the windows double: the fluid at packing fraction 0.4); below 1/4 they
-    /// double (at most to dt).
-    void plan_feedback(double ratio)
+    /// double (at most to dt).  Returns false where planning should stop for a while (the
+    /// caller's choice how long): the windows halved in the last step and the largest group is
+    /// still above the target and no smaller than 4/5 of what it was, or they are as short as
+    /// they get (a pile, whose touching bodies stay joined however short the window: the
+    /// chooser's own tries find the longest window that pays there).  The halving is undone.
+    bool plan_feedback(double ratio)
     {
       if (plan_age > 0 && --plan_age == 0) plan_limit = 2.0;
-      if (ratio > 1.0 && plan > MIN_WINDOW) {
+      const bool halved = plan_halved;
+      plan_halved = false;
+      if (ratio > 1.0) {
+        if ((halved && ratio > 0.8 * plan_ratio) || plan <= MIN_WINDOW) {
+          if (halved) plan *= 2.0;
+          plan_limit = 2.0;
+          plan_age = 0;
+          return false;
+        }
         plan_limit = plan;
         plan *= 0.5;
         plan_age = PLAN_MEMORY;
+        plan_halved = true;
+        plan_ratio = ratio;
       } else if (ratio < 0.25 && 2.0 * plan <= 1.0 && 2.0 * plan < plan_limit) {
         plan *= 2.0;
       }
+      return true;
     }
 
     /// The planned windows' length, as a fraction of dt.
@@ -220,6 +235,8 @@ namespace Collide {
     double plan = 0.5;          // planned windows' length / dt (planned_end())
     double plan_limit = 2.0;    // the length that last made too large a group (2: none)
     int plan_age = 0;           // steps left that plan_limit holds
+    bool plan_halved = false;   // the last planned step halved the windows
+    double plan_ratio = 0.0;    // ... whose largest group over the target was this
     std::vector<std::pair<double, long>> tried;    // (window end, largest group) tried
   };
 

@@ -1983,7 +1983,16 @@ namespace Collide {
     double l[3] = {(double) largest_all, planned_bad ? 1.0 : 0.0, planned_ratio};
     ex.max_sum(l, 3, acc, 5);
     planned_bad = l[1] > 0.0;
-    if (planned && !planned_bad) chooser.plan_feedback(l[2]);
+    // (Where planning stops, the chooser's own windows, with their reductions, for the next
+    // 64 steps, twice as many after each further such stop, at most 1024.)
+    if (planned && !planned_bad) {
+      if (chooser.plan_feedback(l[2])) {
+        plan_backoff = 64;
+      } else {
+        planned_skip = plan_backoff;
+        plan_backoff = std::min(2 * plan_backoff, 1024);
+      }
+    }
     if (planned_bad) results_missing = false;
     stats.largest_group = (long) l[0];
     stats.groups = acc[0];

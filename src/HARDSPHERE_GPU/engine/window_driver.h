@@ -358,6 +358,7 @@ namespace Collide {
     double planned_ratio = 0.0;
     int planned_skip = 0;
     int planned_backoff = 8;
+    int plan_backoff = 64;    // the next skip where WindowChooser::plan_feedback() stops
     std::vector<Body> step_start;
     bool step_kept = false;
     /// How join_missed_boundary() ends a pass: Local, the first of two passes (no reduction;
