@@ -1083,6 +1083,38 @@ TEST(FixHardSphereMPI, PlannedWindowsNeedNoReductionAndKeepTheBits)
   MPI_Barrier(MPI_COMM_WORLD);
 }
 
+// Planned windows over a settling pile, whose touching spheres stay one group however short the
+// window (where halving the windows does not shrink that group, planning stops and the chooser's
+// own tries take over: test_window_chooser): the same bits as with a reduction per window, and
+// about as many windows per step.
+TEST(FixHardSphereMPI, PlannedWindowsGiveWayInAPile)
+{
+  int me = 0, np = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  if (np < 3) GTEST_SKIP() << "planned windows are for three ranks or more";
+  // (A target of 32 atoms, which the pile's group exceeds in any window.)
+  ScopedEnv target("HSGPU_TARGET_GROUP", "32"), span("HSGPU_SPAN_TARGET", "32");
+  Spanning each, planned;
+  {
+    ScopedEnv off("HSGPU_STEP_CHECKS", "0");
+    each = run_dense(MPI_COMM_WORLD, "pile", "parallel", 300, "2.5", "gather");
+  }
+  {
+    ScopedEnv on("HSGPU_STEP_CHECKS", nullptr);
+    planned = run_dense(MPI_COMM_WORLD, "pile", "parallel", 300, "2.5", "gather");
+  }
+  expect_same_bits(planned, each);
+  EXPECT_LT(planned.windows, 2.0 * each.windows + 0.5) << "windows per step";
+  if (me == 0)
+    std::printf("[ MPI      ] %d ranks, pile, 300 steps: %.3g windows per step with planned "
+                "windows (%.4g collective operations), %.3g with a reduction per window (%.4g); "
+                "the same %.0f collisions\n",
+                np, planned.windows, planned.collectives, each.windows, each.collectives,
+                planned.collisions);
+  MPI_Barrier(MPI_COMM_WORLD);
+}
+
 // A window's length is chosen so that its largest group stays near a target; a group that
 // spans ranks is weighed by the part of it one rank sees, against a target of its own (256),
 // not the whole step's: with the step's target (here 8000 for a fluid of 13824 atoms) the parts

@@ -193,19 +193,21 @@ namespace Collide {
     /// caller's choice how long): the windows halved in the last step and the largest group is
     /// still above the target and no smaller than 4/5 of what it was, or they are as short as
     /// they get (a pile, whose touching bodies stay joined however short the window: the
-    /// chooser's own tries find the longest window that pays there).  The halving is undone.
+    /// chooser's own tries find the longest window that pays there).  A halving that did not
+    /// help is undone.
     bool plan_feedback(double ratio)
     {
       if (plan_age > 0 && --plan_age == 0) plan_limit = 2.0;
       const bool halved = plan_halved;
       plan_halved = false;
       if (ratio > 1.0) {
-        if ((halved && ratio > 0.8 * plan_ratio) || plan <= MIN_WINDOW) {
-          if (halved) plan *= 2.0;
+        if (halved && ratio > 0.8 * plan_ratio) {
+          plan *= 2.0;
           plan_limit = 2.0;
           plan_age = 0;
           return false;
         }
+        if (plan <= MIN_WINDOW) return false;
         plan_limit = plan;
         plan *= 0.5;
         plan_age = PLAN_MEMORY;
