@@ -86,6 +86,16 @@ constexpr int NVECTOR = 34;
 constexpr int DEFAULT_MAXPUSH = 1000;    // overlap push passes before giving up
 constexpr int RESTART_FORMAT = 2;        // global restart data: -format, count, values
 
+/* An on/off environment variable (a number, 0 off; `dflt` where it is not set), the same on
+   every rank: off where any rank has it off. */
+bool env_switch(LAMMPS *lmp, const char *name, bool dflt)
+{
+  const char *e = std::getenv(name);
+  int on = (e ? utils::inumeric(FLERR, e, false, lmp) != 0 : dflt) ? 1 : 0;
+  MPI_Allreduce(MPI_IN_PLACE, &on, 1, MPI_INT, MPI_MIN, lmp->world);
+  return on != 0;
+}
+
 double friction_arg(const char *arg, LAMMPS *lmp)
 {
   const double mu = utils::numeric(FLERR, arg, false, lmp);
@@ -589,13 +599,8 @@ void FixHardSphere::init()
   // The gathers' messages go to the neighbouring ranks only, one to each (no consensus
   // over all ranks); HSGPU_NEIGHBOUR_EXCHANGE=0 makes them the messages with a non-blocking
   // barrier instead (for comparison; no result bit depends on it).  The same on all ranks.
-  {
-    const char *e = std::getenv("HSGPU_NEIGHBOUR_EXCHANGE");
-    int on = (e && utils::inumeric(FLERR, e, false, lmp) == 0) ? 0 : 1;
-    MPI_Allreduce(MPI_IN_PLACE, &on, 1, MPI_INT, MPI_MIN, world);
-    neighbour_exchange = on;
-    exchange->forget_neighbours();
-  }
+  neighbour_exchange = env_switch(lmp, "HSGPU_NEIGHBOUR_EXCHANGE", true) ? 1 : 0;
+  exchange->forget_neighbours();
   // The rounds of a gather to the neighbouring ranks passing entries on: a fixed number, with
   // no reduction (WindowSettings::fixed_rounds); HSGPU_FIXED_ROUNDS=n sets how many, 0 the
   // rounds decided by a reduction each, as before (for comparison; no result bit depends on
@@ -610,22 +615,12 @@ void FixHardSphere::init()
   // (WindowSettings::two_passes, on by default); HSGPU_TWO_PASSES=0 makes a reduction after
   // every pass, as before (for comparison).  The same on all ranks.  No result bit depends
   // on it.
-  {
-    const char *e = std::getenv("HSGPU_TWO_PASSES");
-    int on = (e ? utils::inumeric(FLERR, e, false, lmp) != 0 : wsettings.two_passes) ? 1 : 0;
-    MPI_Allreduce(MPI_IN_PLACE, &on, 1, MPI_INT, MPI_MIN, world);
-    wsettings.two_passes = on != 0;
-  }
+  wsettings.two_passes = env_switch(lmp, "HSGPU_TWO_PASSES", wsettings.two_passes);
   // Planned windows, whose checks ride in the step's one reduction after them
   // (WindowSettings::step_checks, on by default); HSGPU_STEP_CHECKS=0 makes a reduction per
   // window length tried and per window's check, as before (for comparison).  The same on all
   // ranks.  No result bit depends on it.
-  {
-    const char *e = std::getenv("HSGPU_STEP_CHECKS");
-    int on = (e ? utils::inumeric(FLERR, e, false, lmp) != 0 : wsettings.step_checks) ? 1 : 0;
-    MPI_Allreduce(MPI_IN_PLACE, &on, 1, MPI_INT, MPI_MIN, world);
-    wsettings.step_checks = on != 0;
-  }
+  wsettings.step_checks = env_switch(lmp, "HSGPU_STEP_CHECKS", wsettings.step_checks);
   // Tuning aid: HSGPU_EDGE_FACTOR and HSGPU_EDGE_HOPS set the window bounds of the atoms next to
   // another rank's (WindowSettings::edge_factor, edge_hops; no result bit depends on them).
   if (const char *e = std::getenv("HSGPU_EDGE_FACTOR"))

@@ -1270,36 +1270,29 @@ namespace Collide {
       ++joined;
     }
     long c[3] = {joined, capped ? 1L : 0L, span_fail ? 1L : 0L};
-    if (check == Check::Local)
-      // A pass that another one follows whatever it found (WindowSettings::two_passes): the
-      // pairs joined here, every boundary body back to the window start, no reduction (what
-      // the pass resolved, its cap and its gathers' outcome are redone).
-      c[2] = 0;
-    else if (check == Check::Reduced)
-      ex.sum(c, 3);
+    span_fail = false;
+    // Local: a pass that another one follows whatever it found (WindowSettings::two_passes):
+    // the pairs joined here, every boundary body back to the window start, no reduction (what
+    // the pass resolved, its cap and its gathers' outcome are redone).  Kept: this rank's
+    // outcome only (planned windows; the caller notes it for the step's reduction), which
+    // changes nothing of what the next gathers do.  Reduced: over all ranks.
+    if (check == Check::Reduced) ex.sum(c, 3);
     capped = c[1] > 0 ? 1 : 0;
-    if (check == Check::Kept) {
-      // This rank's outcome only (planned windows): the caller notes it for the step's
-      // reduction; nothing here changes what the next gathers do.
-      failed = c[2] > 0;
-      span_fail = false;
-      if (c[0] == 0 && !failed) return 0;
-      c[2] = 0;
-    }
+    failed = check != Check::Local && c[2] > 0;
     // A group that did not come whole to its resolver after the fixed rounds (some rank):
     // the window's boundary groups again, from the window start, gathered from every rank
     // (and the next gathers too, as after a gather to the neighbours that ended so).
-    failed = failed || c[2] > 0;
-    if (c[2] > 0) {
-      ++stats_round_fails;
-      if (fixed_rounds > 0 && fixed_rounds < MAX_ROUNDS) ++fixed_rounds;
-      neighbour_skip = neighbour_backoff;
-      neighbour_backoff = std::min(2 * neighbour_backoff, 64);
-    } else if (fixed_gather && check == Check::Reduced) {
-      neighbour_backoff = 8;
+    if (check == Check::Reduced) {
+      if (failed) {
+        ++stats_round_fails;
+        if (fixed_rounds > 0 && fixed_rounds < MAX_ROUNDS) ++fixed_rounds;
+        neighbour_skip = neighbour_backoff;
+        neighbour_backoff = std::min(2 * neighbour_backoff, 64);
+      } else if (fixed_gather) {
+        neighbour_backoff = 8;
+      }
     }
-    span_fail = false;
-    if (check == Check::Reduced && c[0] == 0 && !failed) return 0;
+    if (check != Check::Local && c[0] == 0 && !failed) return 0;
     // Boundary roots anew; every body in a boundary group (old or new) back to the window
     // start; local groups that joined one leave the local tallies.
     const int nf = (int) foreign.size();
@@ -1753,7 +1746,7 @@ namespace Collide {
     long largest_all = 0;
     double t0 = 0.0;
     planned_bad = false;
-    planned_ratio = 0.0;
+    double planned_ratio = 0.0;    // the largest group over the target, planned windows
     step_kept = false;
     if (!planned) chooser.start_step(dt);
     int k = 0;
@@ -1806,9 +1799,7 @@ namespace Collide {
       bool gather = false;    // the whole window by the old path
       if (!gather) {
         // The groups resolved here, each with its own tally (a repair replaces a group's).
-        if (snap.capacity() < bodies.size()) snap.reserve(bodies.size() + bodies.size() / 8 + 64);
-        snap.assign(bodies.begin(), bodies.end());
-        sparse_snap = false;
+        take_snapshot(bodies, fedges, p, true);    // (the view's foreign copies too)
         const int ng = nlocal_groups;
         group_of.resize(nv);
         for (int g = 0; g < ng; ++g)

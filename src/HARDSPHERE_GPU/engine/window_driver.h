@@ -349,13 +349,11 @@ namespace Collide {
     int neighbour_backoff = 8;    // the next such skip
     // Planned windows (WindowSettings::step_checks): this run() tries them (the same on every
     // rank); what went wrong in them on this rank (a missed pair after a window's second pass,
-    // a group short of its resolver, the event cap, a result not where it belongs); the
-    // largest group over the target in them; the steps left that take a reduction per window
-    // and the next such skip; the bodies at the step start (the first window's snapshot, kept
-    // here once a second window starts: step_kept).
+    // a group short of its resolver, the event cap, a result not where it belongs); the steps
+    // left that take a reduction per window and the next such skip; the bodies at the step
+    // start (the first window's snapshot, kept here once a second window starts: step_kept).
     bool planned = false;
     bool planned_bad = false;
-    double planned_ratio = 0.0;
     int planned_skip = 0;
     int planned_backoff = 8;
     int plan_backoff = 64;    // the next skip where WindowChooser::plan_feedback() stops
