@@ -11,13 +11,17 @@
 #   examples/benchmarks/bench_scaling_mpi.sh lmp plugin ["ranks"] [per] [big] [reps]
 #
 #   ranks  default "1 2 4 8 16";  per  default 32768;  big  default 1048576;  reps  default 1
-#   (the median of each column is printed, each row as soon as its runs are done).
+#   (the median of each column is printed, and the least and most fix step of the runs; the
+#   repetitions go round the rank counts, so that a slow spell of a shared host falls on all of
+#   them alike: one run of one rank varied by a factor of 1.8 within minutes on a 16-core
+#   virtual machine, 2026-11-27).
 #   HSGPU_SCALING="weak strong" picks the tables; HSGPU_POUR_STEPS the pour's steps (600);
 #   HSGPU_WEAK="lattice3d fluid pour" the weak table's scenes; HSGPU_STRONG_STEPS the strong
 #   table's steps (20);
 #   HSGPU_SPANNING=view|gather adds that `spanning` keyword to the fix (default: the fix's).
 #
-# Columns: the fix's own time per step after the run's first (its run summary), LAMMPS's Loop
+# Columns: the fix's own time per step after the run's first (its run summary; median, and the
+# least and most of the runs), LAMMPS's Loop
 # time per step, the efficiency of the fix's time (weak: t(P0) N(P) / (t(P) N(P0)) x P0 / P; strong:
 # t(P0) P0 / (t(P) P), P0 the first rank count), the atoms per step in groups that span ranks,
 # gathers per step, the fix's communication of the last step: collective operations
@@ -83,8 +87,8 @@ one() {
     "$work/$log"
 }
 
-hdr="| configuration | N | ranks | fix step ms | Loop ms/step | efficiency (fix) | spanning atoms/step | gathers/step | collectives | ghost updates | bytes | communication ms/step (least-most rank) | spanning groups ms/step (most) |"
-rul="|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+hdr="| configuration | N | ranks | fix step ms | fix step ms, least-most run | Loop ms/step | efficiency (fix) | spanning atoms/step | gathers/step | collectives | ghost updates | bytes | communication ms/step (least-most rank) | spanning groups ms/step (most) |"
+rul="|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
 
 size_args() {    # case np -> prints "N args..."
   local c=$1 np=$2 total=$((per * $2))
@@ -103,28 +107,38 @@ size_args() {    # case np -> prints "N args..."
   esac
 }
 
-table() {    # weak|strong cases...  Each row is printed as soon as it is measured.
+table() {    # weak|strong cases...  Each case's rows are printed once its runs are done.
   local kind=$1; shift
   local c np rep
   echo "$hdr"
   echo "$rul"
   for c in "$@"; do
     local base="" bn="" bp=""
+    for np in "${ranks[@]}"; do : > "$work/rows.$c.$np"; done
+    # The repetitions go round the rank counts (1 2 4 ... 1 2 4 ...), so that a slow spell of
+    # the host falls on every rank count alike rather than on one row.
+    for ((rep = 0; rep < reps; ++rep)); do
+      for np in "${ranks[@]}"; do
+        read -r -a a <<< "$(size_args "$c" "$np")"
+        one "$np" "in.${c#big_}" "log.$c.$np" "${a[@]:1}" >> "$work/rows.$c.$np"
+        # (each run as it ends, on standard error: a row whose later runs do not end is kept)
+        echo "# ${c#big_}, $np ranks, run $((rep + 1)) of $reps: fix step $(tail -n 1 "$work/rows.$c.$np" | awk '{print $1}') ms" >&2
+      done
+    done
     for np in "${ranks[@]}"; do
       read -r -a a <<< "$(size_args "$c" "$np")"
       local n=${a[0]} m=()
-      : > "$work/rows.$c.$np"
-      for ((rep = 0; rep < reps; ++rep)); do
-        one "$np" "in.${c#big_}" "log.$c.$np" "${a[@]:1}" >> "$work/rows.$c.$np"
-      done
       for k in 1 2 3 4 5 6 7 8 9 10; do m+=("$(awk -v k=$k '{print $k}' "$work/rows.$c.$np" | median)"); done
       [ -n "$base" ] || { base=${m[0]}; bn=$n; bp=$np; }
+      local spread
+      spread=$(awk '{print $1}' "$work/rows.$c.$np" | sort -g | awk '{v[NR] = $1} END {printf (NR > 1) ? "%.4g-%.4g" : "-", v[1], v[NR]}')
       awk -v lab="${c#big_}" -v n="$n" -v np="$np" -v kind="$kind" -v b="$base" -v bn="$bn" -v bp="$bp" \
         -v fix="${m[0]}" -v loop="${m[1]}" -v span="${m[2]}" -v gath="${m[3]}" -v coll="${m[4]}" \
-        -v ghost="${m[5]}" -v bytes="${m[6]}" -v clo="${m[7]}" -v chi="${m[8]}" -v shi="${m[9]}" 'BEGIN {
+        -v ghost="${m[5]}" -v bytes="${m[6]}" -v clo="${m[7]}" -v chi="${m[8]}" -v shi="${m[9]}" \
+        -v spread="$spread" 'BEGIN {
           eff = (kind == "weak") ? (b / bn) / (fix / n) * bp / np : b * bp / (fix * np)
-          printf "| %s | %d | %d | %.2f | %.2f | %.0f%% | %.0f | %.2f | %.0f | %.0f | %.3g | %.3g-%.3g | %.3g |\n",
-            lab, n, np, fix, loop, 100 * eff, span, gath, coll, ghost, bytes, clo, chi, shi }'
+          printf "| %s | %d | %d | %.2f | %s | %.2f | %.0f%% | %.0f | %.2f | %.0f | %.0f | %.3g | %.3g-%.3g | %.3g |\n",
+            lab, n, np, fix, spread, loop, 100 * eff, span, gath, coll, ghost, bytes, clo, chi, shi }'
     done
   done
   echo

@@ -162,6 +162,7 @@ class FixHardSphere : public Fix {
   struct RunSummary {       // this run, for the line post_run() logs
     bigint steps = 0;
     double pairs = 0.0, events = 0.0, largest = 0.0, windows = 0.0, groups = 0.0;
+    double largest_sum = 0.0;    // the steps' largest groups added up (post_run()'s warning)
     double boundary = 0.0, gathers = 0.0, repairs = 0.0, redos = 0.0;
     double spanning = 0.0, fallbacks = 0.0, gathered = 0.0, neighbour = 0.0;
     double t_search = 0.0, t_resolve = 0.0, t_step = 0.0;

@@ -1508,6 +1508,7 @@ void FixHardSphere::post_integrate()
   run_sum.pairs += (double) all.pair;
   run_sum.events += (double) all.events;
   run_sum.largest = std::max(run_sum.largest, last_largest);
+  run_sum.largest_sum += last_largest;
   run_sum.windows += last_windows;
   run_sum.groups += last_groups;
   run_sum.boundary += last_boundary;
@@ -1570,6 +1571,11 @@ void FixHardSphere::post_run()
   auto most = [&](int k) { return 1e3 * twx[NT + k] / n; };
   gath.t_put = gath.t_wait = gath.t_handles_most = 0.0;
   for (double &t : gath.t_part) t = 0.0;
+  // One group of atoms resolved together that holds a quarter of them or more, on average over
+  // the steps, on several ranks: its collisions are resolved one after another in one event
+  // queue, its atoms gathered from the ranks every window (touching spheres, such as a settled
+  // pile, are one group however short the window), so more ranks cannot make the run faster.
+  const double natoms_fix = (comm->nprocs > 1) ? (double) group->count(igroup) : 0.0;
   if (comm->me != 0) return;
   auto part = [&](int k) {
     return fmt::format("{:.3g} to {:.3g}", least(GPART + k), most(GPART + k));
@@ -1656,4 +1662,16 @@ void FixHardSphere::post_run()
     if ((comm->nprocs == 1 || gather_step) && igroup == 0)
       utils::logmesg(lmp, "Fix hardsphere: {}\n", motion_summary());
   }
+  if (comm->nprocs > 1 && !serial_order && !gather_step && natoms_fix > 0.0 &&
+      r.largest_sum / n >= 0.25 * natoms_fix)
+    error->warning(FLERR,
+                   fmt::format("Fix hardsphere: its largest group of atoms resolved together "
+                               "held {:.0f} of its {:.0f} atoms on average over this run's {} "
+                               "steps ({:.0f}%; touching spheres, such as a settled pile, are "
+                               "one group): such a group's collisions are resolved one after "
+                               "another, its atoms gathered from the ranks every window, so this "
+                               "run cannot gain from its {} ranks and may well run faster on "
+                               "fewer",
+                               r.largest_sum / n, natoms_fix, r.steps,
+                               100.0 * r.largest_sum / (n * natoms_fix), comm->nprocs));
 }

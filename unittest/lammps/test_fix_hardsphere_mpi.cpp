@@ -1115,6 +1115,66 @@ TEST(FixHardSphereMPI, PlannedWindowsGiveWayInAPile)
   MPI_Barrier(MPI_COMM_WORLD);
 }
 
+// A settled pile is one group of touching spheres over the ranks: its collisions are resolved
+// one after another, however many ranks there are.  A run says so in a warning at its end, with
+// the numbers that tell why; a fluid of 20^3 spheres, whose groups are small, does not.  The
+// pile: 10 x 10 x 5 spheres of diameter 1 stacked on a floor, each touching its neighbours,
+// under gravity (every step's kick sends a chain of collisions up from the floor through every
+// column).
+bool log_has(const std::string &file, const std::string &text)
+{
+  std::FILE *f = std::fopen(file.c_str(), "r");
+  if (!f) return false;
+  std::string all;
+  char buf[4096];
+  for (size_t got; (got = std::fread(buf, 1, sizeof(buf), f)) > 0;) all.append(buf, got);
+  std::fclose(f);
+  return all.find(text) != std::string::npos;
+}
+
+TEST(FixHardSphereMPI, APileOverTheRanksIsNamedInAWarning)
+{
+  int me = 0, np = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  if (np < 2) GTEST_SKIP() << "the warning is for several ranks";
+  const std::string warning = "WARNING: Fix hardsphere: its largest group of atoms resolved";
+  const std::string pile_log = "hs_pile_warning_" + std::to_string(np) + ".log";
+  const std::string fluid_log = "hs_fluid_warning_" + std::to_string(np) + ".log";
+  double pile_largest = 0.0;
+  {
+    Lammps lmp(MPI_COMM_WORLD);
+    lmp.commands({"units lj", "atom_style sphere", "atom_modify map array", "boundary p p f",
+                  "processors * * 1", "region box block 0 10 0 10 0 12 units box",
+                  "create_box 1 box", "lattice sc 1.0 origin 0.5 0.5 0.5",
+                  "region stack block 0 10 0 10 0 5 units box", "create_atoms 1 region stack",
+                  "set type 1 diameter 1.0", "set type 1 mass 1.0", "comm_modify vel yes",
+                  "neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere",
+                  "fix g all gravity 1.0 vector 0 0 -1",
+                  "fix hs all hardsphere restitution 0.5 wall zlo 0.5", "timestep 0.01",
+                  "thermo 0", "log " + pile_log, "fix avg all ave/time 1 50 50 f_hs[7] f_hs[24]",
+                  "run 50"});
+    EXPECT_EQ(lmp.natoms(), 500);
+    pile_largest = lmp.fix_vector("avg", 0);
+  }
+  const Spanning fluid =
+      run_dense(MPI_COMM_WORLD, "fluid", "parallel", 20, "2.5", "gather", fluid_log, 20);
+  if (me == 0) {
+    // (f_hs[7] averaged over the run: the figure the warning weighs against the atoms.)
+    EXPECT_GE(pile_largest, 250.0) << "the pile's largest group, atoms per step of 500";
+    EXPECT_TRUE(log_has(pile_log, warning)) << pile_log;
+    EXPECT_TRUE(log_has(fluid_log, "Fix hardsphere (parallel order")) << fluid_log;
+    EXPECT_LT(fluid.largest, 0.25 * 8000.0) << "the fluid's largest group, atoms per step";
+    EXPECT_FALSE(log_has(fluid_log, warning)) << fluid_log;
+    std::remove(pile_log.c_str());
+    std::remove(fluid_log.c_str());
+    std::printf("[ MPI      ] %d ranks: the pile's largest group %.4g of 500 atoms per step "
+                "(warned), the fluid's %.4g of 8000 (not)\n",
+                np, pile_largest, fluid.largest);
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+}
+
 // A window's length is chosen so that its largest group stays near a target; a group that
 // spans ranks is weighed by the part of it one rank sees, against a target of its own (256),
 // not the whole step's: with the step's target (here 8000 for a fluid of 13824 atoms) the parts
