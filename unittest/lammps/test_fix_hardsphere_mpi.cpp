@@ -1132,6 +1132,38 @@ bool log_has(const std::string &file, const std::string &text)
   return all.find(text) != std::string::npos;
 }
 
+// The stack: 10 x 10 x 5 spheres of diameter 1 on a floor, each touching its neighbours, under
+// gravity, `steps` steps (with the log in `logfile` where given).  Gathered: x, v, collisions,
+// and per step averaged over the run f_hs[7] (largest group), f_hs[9] (windows), f_hs[16]
+// (gathers: passes over the groups that span ranks) and f_hs[24] (collectives).
+Spanning stack_pile(int steps, const std::string &logfile = "")
+{
+  Lammps lmp(MPI_COMM_WORLD);
+  const std::string ns = std::to_string(steps);
+  lmp.commands({"units lj", "atom_style sphere", "atom_modify map array", "boundary p p f",
+                "processors * * 1", "region box block 0 10 0 10 0 12 units box",
+                "create_box 1 box", "lattice sc 1.0 origin 0.5 0.5 0.5",
+                "region stack block 0 10 0 10 0 5 units box", "create_atoms 1 region stack",
+                "set type 1 diameter 1.0", "set type 1 mass 1.0", "comm_modify vel yes",
+                "neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere",
+                "fix g all gravity 1.0 vector 0 0 -1",
+                "fix hs all hardsphere restitution 0.5 wall zlo 0.5", "timestep 0.01",
+                "thermo 0"});
+  if (!logfile.empty()) lmp.commands({"log " + logfile});
+  lmp.commands({"fix avg all ave/time 1 " + ns + " " + ns + " f_hs[7] f_hs[9] f_hs[16] f_hs[24]",
+                "run " + ns});
+  EXPECT_EQ(lmp.natoms(), 500);
+  Spanning s;
+  s.x = lmp.gather("x", 3);
+  s.v = lmp.gather("v", 3);
+  s.collisions = lmp.fix_vector("hs", 1);
+  s.largest = lmp.fix_vector("avg", 0);
+  s.windows = lmp.fix_vector("avg", 1);
+  s.gathers = lmp.fix_vector("avg", 2);
+  s.collectives = lmp.fix_vector("avg", 3);
+  return s;
+}
+
 TEST(FixHardSphereMPI, APileOverTheRanksIsNamedInAWarning)
 {
   int me = 0, np = 1;
@@ -1141,27 +1173,12 @@ TEST(FixHardSphereMPI, APileOverTheRanksIsNamedInAWarning)
   const std::string warning = "WARNING: Fix hardsphere: its largest group of atoms resolved";
   const std::string pile_log = "hs_pile_warning_" + std::to_string(np) + ".log";
   const std::string fluid_log = "hs_fluid_warning_" + std::to_string(np) + ".log";
-  double pile_largest = 0.0;
-  {
-    Lammps lmp(MPI_COMM_WORLD);
-    lmp.commands({"units lj", "atom_style sphere", "atom_modify map array", "boundary p p f",
-                  "processors * * 1", "region box block 0 10 0 10 0 12 units box",
-                  "create_box 1 box", "lattice sc 1.0 origin 0.5 0.5 0.5",
-                  "region stack block 0 10 0 10 0 5 units box", "create_atoms 1 region stack",
-                  "set type 1 diameter 1.0", "set type 1 mass 1.0", "comm_modify vel yes",
-                  "neigh_modify every 1 delay 0 check yes", "fix 1 all nve/sphere",
-                  "fix g all gravity 1.0 vector 0 0 -1",
-                  "fix hs all hardsphere restitution 0.5 wall zlo 0.5", "timestep 0.01",
-                  "thermo 0", "log " + pile_log, "fix avg all ave/time 1 50 50 f_hs[7] f_hs[24]",
-                  "run 50"});
-    EXPECT_EQ(lmp.natoms(), 500);
-    pile_largest = lmp.fix_vector("avg", 0);
-  }
+  const Spanning pile = stack_pile(50, pile_log);
   const Spanning fluid =
       run_dense(MPI_COMM_WORLD, "fluid", "parallel", 20, "2.5", "gather", fluid_log, 20);
   if (me == 0) {
     // (f_hs[7] averaged over the run: the figure the warning weighs against the atoms.)
-    EXPECT_GE(pile_largest, 250.0) << "the pile's largest group, atoms per step of 500";
+    EXPECT_GE(pile.largest, 250.0) << "the pile's largest group, atoms per step of 500";
     EXPECT_TRUE(log_has(pile_log, warning)) << pile_log;
     EXPECT_TRUE(log_has(fluid_log, "Fix hardsphere (parallel order")) << fluid_log;
     EXPECT_LT(fluid.largest, 0.25 * 8000.0) << "the fluid's largest group, atoms per step";
@@ -1170,7 +1187,46 @@ TEST(FixHardSphereMPI, APileOverTheRanksIsNamedInAWarning)
     std::remove(fluid_log.c_str());
     std::printf("[ MPI      ] %d ranks: the pile's largest group %.4g of 500 atoms per step "
                 "(warned), the fluid's %.4g of 8000 (not)\n",
-                np, pile_largest, fluid.largest);
+                np, pile.largest, fluid.largest);
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+}
+
+// Where planned windows give way (halving them does not shrink the largest group: the stack's
+// touching spheres are one group however short the window), the bounds at the ranks' edges are
+// not halved either until planning is tried again, and with them each window's second pass
+// over the groups that span ranks goes: the pile is resolved once per window, not twice.  The
+// same bits as the reductions per window (HSGPU_STEP_CHECKS=0, where planning never starts and
+// the bounds stay halved: two passes per window).
+TEST(FixHardSphereMPI, APileWherePlanningGaveWayIsResolvedOncePerWindow)
+{
+  int me = 0, np = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  if (np < 3) GTEST_SKIP() << "planned windows and halved bounds are for three ranks or more";
+  // (Targets of 32 atoms, which the pile's group and each rank's part of it exceed in any
+  // window, as in a pile of many atoms per rank.)
+  ScopedEnv target("HSGPU_TARGET_GROUP", "32"), span("HSGPU_SPAN_TARGET", "32");
+  Spanning halved, whole;
+  {
+    ScopedEnv off("HSGPU_STEP_CHECKS", "0");
+    halved = stack_pile(100);
+  }
+  {
+    ScopedEnv on("HSGPU_STEP_CHECKS", nullptr);
+    whole = stack_pile(100);
+  }
+  expect_same_bits(whole, halved);
+  if (me == 0) {
+    EXPECT_GT(halved.collisions, 0.0);
+    EXPECT_GE(halved.gathers, 1.9 * halved.windows) << "two passes per window, halved bounds";
+    EXPECT_LT(whole.gathers, 1.3 * whole.windows) << "passes per window where planning gave way";
+    std::printf("[ MPI      ] %d ranks, a stack of 500 touching spheres, 100 steps: %.3g passes "
+                "over the spanning groups in %.3g windows per step (%.3g collectives) where "
+                "planning gave way, %.3g in %.3g (%.3g) with the bounds halved; the same %.0f "
+                "collisions\n",
+                np, whole.gathers, whole.windows, whole.collectives, halved.gathers,
+                halved.windows, halved.collectives, whole.collisions);
   }
   MPI_Barrier(MPI_COMM_WORLD);
 }

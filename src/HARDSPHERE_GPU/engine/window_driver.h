@@ -357,6 +357,7 @@ namespace Collide {
     int planned_skip = 0;
     int planned_backoff = 8;
     int plan_backoff = 64;    // the next skip where WindowChooser::plan_feedback() stops
+    bool plan_gave_way = false;    // planned_skip set there: no halved bounds meanwhile (run())
     std::vector<Body> step_start;
     bool step_kept = false;
     /// How join_missed_boundary() ends a pass: Local, the first of two passes (no reduction;
