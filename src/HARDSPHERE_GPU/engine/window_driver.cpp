@@ -1667,8 +1667,8 @@ namespace Collide {
     // (plan_gave_way: touching spheres, a settled pile, are one group however short the
     // window), the bounds are not halved at the ranks' edges either until planning is tried
     // again: they cannot shrink such a group, and they made each of its windows take two passes,
-    // the pile resolved twice (4 ranks of a settled pile of 16384 atoms: 2.67 gathers and 293 ms
-    // per step against 1.07 and 98 ms; the same bits).
+    // the pile resolved twice (a settled pile of 16384 atoms on 4 ranks of a 16-core host: 2.6
+    // passes and 213-273 ms per step against 1.3 and 106-112 ms; the same bits).
     near_edge.clear();
     const bool pile = plan_gave_way && planned_skip > 0;
     edge_bounds = ex.nranks() > 2 && !use_view && s.edge_factor != 1.0 &&

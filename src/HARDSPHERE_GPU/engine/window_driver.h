@@ -15,7 +15,8 @@
    2. gives every body of the view a bound d = max(k |v|, f vmax) (t1 - t0) on how far its
       drift line will move in the window (k, f: WindowSettings; vmax the fastest drift speed of
       the step; on three ranks or more without the view, WindowSettings::edge_factor times that
-      for the bodies next to another rank's) and joins the candidate pairs whose gap at t0 is
+      for the bodies next to another rank's, except while planned windows have given way, as in
+      a settled pile) and joins the candidate pairs whose gap at t0 is
       within d_i + d_j;
    3. resolves the connected components ("groups") that hold a local body: a group of local
       bodies, or one that spans ranks and whose foreign nodes are all complete, is resolved
