@@ -1192,18 +1192,23 @@ TEST(FixHardSphereMPI, APileOverTheRanksIsNamedInAWarning)
   MPI_Barrier(MPI_COMM_WORLD);
 }
 
-// Where planned windows give way (halving them does not shrink the largest group: the stack's
-// touching spheres are one group however short the window), the bounds at the ranks' edges are
-// not halved either until planning is tried again, and with them each window's second pass
-// over the groups that span ranks goes: the pile is resolved once per window, not twice.  The
-// same bits as the reductions per window (HSGPU_STEP_CHECKS=0, where planning never starts and
-// the bounds stay halved: two passes per window).
+// Where planned windows give way (halving them does not shrink the largest group, weighed whole
+// where it spans ranks: the stack's touching spheres are one group however short the window),
+// the bounds at the ranks' edges are not halved either until planning is tried again, and with
+// them each window's second pass over the groups that span ranks goes: the pile is resolved
+// once per window, not twice (on 4 and 8 ranks with the default targets, before the whole
+// group was weighed: two windows per step of two passes each).  The same bits as the
+// reductions per window (HSGPU_STEP_CHECKS=0, where planning never starts and the bounds stay
+// halved: two passes per window).
 TEST(FixHardSphereMPI, APileWherePlanningGaveWayIsResolvedOncePerWindow)
 {
   int me = 0, np = 1;
   MPI_Comm_rank(MPI_COMM_WORLD, &me);
   MPI_Comm_size(MPI_COMM_WORLD, &np);
   if (np < 3) GTEST_SKIP() << "planned windows and halved bounds are for three ranks or more";
+  // With the default targets: each rank's part of the pile is below the spanning groups'
+  // target (256 atoms), but the whole group its resolver sees is not, and the plan weighs that.
+  const Spanning plain = stack_pile(100);
   // (Targets of 32 atoms, which the pile's group and each rank's part of it exceed in any
   // window, as in a pile of many atoms per rank.)
   ScopedEnv target("HSGPU_TARGET_GROUP", "32"), span("HSGPU_SPAN_TARGET", "32");
@@ -1217,6 +1222,11 @@ TEST(FixHardSphereMPI, APileWherePlanningGaveWayIsResolvedOncePerWindow)
     whole = stack_pile(100);
   }
   expect_same_bits(whole, halved);
+  expect_same_bits(plain, halved);
+  if (me == 0) {
+    EXPECT_LT(plain.windows, 1.3) << "windows per step, default targets";
+    EXPECT_LT(plain.gathers, 1.3 * plain.windows) << "passes per window, default targets";
+  }
   if (me == 0) {
     EXPECT_GT(halved.collisions, 0.0);
     EXPECT_GE(halved.gathers, 1.9 * halved.windows) << "two passes per window, halved bounds";

@@ -1779,6 +1779,10 @@ namespace Collide {
       int capped = 0;
       fallback_window(bodies, edges, fedges, foreign, p, s, backend, ex, t0, t1, tloc, tbnd, capped,
                       acc, largest_all, true);
+      // (The plan also weighs the groups resolved whole here, a spanning group's too: a small
+      // pile over many ranks, each rank's part of it below the spanning target, is one group
+      // that halving does not shrink, and planning gives way.)
+      if (planned) planned_ratio = std::max(planned_ratio, (double) largest_all / (double) target);
       ++k;
       if (capped) {
         tloc.capped = 1;
