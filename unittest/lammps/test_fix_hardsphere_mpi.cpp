@@ -1115,12 +1115,7 @@ TEST(FixHardSphereMPI, PlannedWindowsGiveWayInAPile)
   MPI_Barrier(MPI_COMM_WORLD);
 }
 
-// A settled pile is one group of touching spheres over the ranks: its collisions are resolved
-// one after another, however many ranks there are.  A run says so in a warning at its end, with
-// the numbers that tell why; a fluid of 20^3 spheres, whose groups are small, does not.  The
-// pile: 10 x 10 x 5 spheres of diameter 1 stacked on a floor, each touching its neighbours,
-// under gravity (every step's kick sends a chain of collisions up from the floor through every
-// column).
+// Whether the log file holds `text`.
 bool log_has(const std::string &file, const std::string &text)
 {
   std::FILE *f = std::fopen(file.c_str(), "r");
@@ -1133,7 +1128,8 @@ bool log_has(const std::string &file, const std::string &text)
 }
 
 // The stack: 10 x 10 x 5 spheres of diameter 1 on a floor, each touching its neighbours, under
-// gravity, `steps` steps (with the log in `logfile` where given).  Gathered: x, v, collisions,
+// gravity (every step's kick sends a chain of collisions up from the floor through every
+// column), `steps` steps (with the log in `logfile` where given).  Gathered: x, v, collisions,
 // and per step averaged over the run f_hs[7] (largest group), f_hs[9] (windows), f_hs[16]
 // (gathers: passes over the groups that span ranks) and f_hs[24] (collectives).
 Spanning stack_pile(int steps, const std::string &logfile = "")
@@ -1164,6 +1160,10 @@ Spanning stack_pile(int steps, const std::string &logfile = "")
   return s;
 }
 
+// A settled pile is one group of touching spheres over the ranks: its collisions are resolved
+// one after another, however many ranks there are.  A run says so in a warning at its end, with
+// the numbers that tell why (the stack); a fluid of 20^3 spheres, whose groups are small, does
+// not.
 TEST(FixHardSphereMPI, APileOverTheRanksIsNamedInAWarning)
 {
   int me = 0, np = 1;
@@ -1226,8 +1226,6 @@ TEST(FixHardSphereMPI, APileWherePlanningGaveWayIsResolvedOncePerWindow)
   if (me == 0) {
     EXPECT_LT(plain.windows, 1.3) << "windows per step, default targets";
     EXPECT_LT(plain.gathers, 1.3 * plain.windows) << "passes per window, default targets";
-  }
-  if (me == 0) {
     EXPECT_GT(halved.collisions, 0.0);
     EXPECT_GE(halved.gathers, 1.9 * halved.windows) << "two passes per window, halved bounds";
     EXPECT_LT(whole.gathers, 1.3 * whole.windows) << "passes per window where planning gave way";
