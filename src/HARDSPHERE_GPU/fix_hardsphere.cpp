@@ -621,6 +621,13 @@ void FixHardSphere::init()
   // window length tried and per window's check, as before (for comparison).  The same on all
   // ranks.  No result bit depends on it.
   wsettings.step_checks = env_switch(lmp, "HSGPU_STEP_CHECKS", wsettings.step_checks);
+  // The foreign atoms' start points of each step's first window formed from the step's own
+  // ghost update (WindowSettings::start_from_step, on by default); HSGPU_START_FROM_STEP=0
+  // gives them a ghost update of their own, as every later window start (for comparison);
+  // HSGPU_START_CHECK=1 makes both and compares them (a test aid; the run's summary says how
+  // many differed).  The same on all ranks.  No result bit depends on them.
+  wsettings.start_from_step = env_switch(lmp, "HSGPU_START_FROM_STEP", wsettings.start_from_step);
+  wsettings.start_check = env_switch(lmp, "HSGPU_START_CHECK", wsettings.start_check);
   // Tuning aid: HSGPU_EDGE_FACTOR and HSGPU_EDGE_HOPS set the window bounds of the atoms next to
   // another rank's (WindowSettings::edge_factor, edge_hops; no result bit depends on them).
   if (const char *e = std::getenv("HSGPU_EDGE_FACTOR"))

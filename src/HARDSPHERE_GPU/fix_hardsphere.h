@@ -178,6 +178,7 @@ class FixHardSphere : public Fix {
     double forwards = 0.0;  // rounds of gathers passing entries on (WindowStats::forwards)
     double round_fails = 0.0;    // passes gathered again after them (WindowStats::round_fails)
     double step_redos = 0.0;     // steps of planned windows done again (WindowStats::step_redos)
+    double start_checked = 0.0, start_differ = 0.0;    // WindowStats::start_checked, _differ
     bigint declined[5] = {0, 0, 0, 0, 0};                  // steps handed back, by ResidentOutcome
     bigint moved = 0, checked = 0;    // device steps with x, v moved there, or checked (gpu/keep)
     bigint ahead = 0, dropped = 0;    // steps run ahead during LAMMPS's integration, dropped
@@ -208,6 +209,9 @@ class FixHardSphere : public Fix {
   std::vector<int> foreign_ghost;    // foreign node -> one ghost index of it
   std::vector<HSGPU::Collide::ForeignEdge> efedges;
   std::vector<HSGPU::Collide::ForeignNode> fnodes;
+  // Per foreign node: its owner's start point X0 and velocity from the step's ghost update
+  // (WindowDriver::foreign_start())
+  std::vector<double> fstart;
   // Candidate pairs of two foreign nodes (window_driver.h's view; several ranks, parallel
   // order): i, j foreign nodes, the lower ID first; and the partner counts that tell which
   // foreign nodes have all their partners here.

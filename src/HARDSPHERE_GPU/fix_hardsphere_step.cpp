@@ -386,6 +386,15 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
       }
       foreign_of[ft[k].second - nlocal] = (int) foreign_tag.size() - 1;
     }
+    // Each node's owner's start point and velocity, as its body has them (start_body()).
+    fstart.resize((size_t) 6 * fnodes.size());
+    for (size_t f = 0; f < fnodes.size(); ++f) {
+      const double *g = &gdata[(size_t) NFWD * foreign_ghost[f]];
+      for (int d = 0; d < 3; ++d) {
+        fstart[6 * f + d] = g[d] - g[3 + d] * drift_dt;
+        fstart[6 * f + 3 + d] = g[3 + d];
+      }
+    }
   }
 
   // Candidate pairs from the cell search over owned and ghost atoms of the group, at their
@@ -1218,6 +1227,7 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
   while (true) {
     const double t0 = MPI_Wtime();
     if (vflag_atom) bvir.assign(6 * bodies.size(), 0.0);
+    driver.foreign_start(&fstart);
     driver.run(bodies, edges, efedges, fnodes, p, wsettings, *be, *exchange, mine, stats,
                vflag_atom ? bvir.data() : nullptr,
                comm->nprocs > 1 && !spanning_gather ? &ffedges : nullptr);
@@ -1250,6 +1260,8 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
   last_forwards = (double) stats.forwards;
   last_round_fails = (double) stats.round_fails;
   last_step_redos = (double) stats.step_redos;
+  run_sum.start_checked += (double) stats.start_checked;
+  run_sum.start_differ += (double) stats.start_differ;
 }
 
 bool FixHardSphere::resident_usable() const
@@ -1539,8 +1551,10 @@ void FixHardSphere::post_run()
   const RunSummary &r = run_sum;
   if (r.steps == 0) return;
   // The bytes and messages all ranks received (every rank takes part in the sum).
-  double mine[2] = {r.bytes, r.messages}, all[2] = {0.0, 0.0};
-  if (comm->nprocs > 1) MPI_Allreduce(mine, all, 2, MPI_DOUBLE, MPI_SUM, world);
+  // (With them, WindowSettings::start_check's comparisons.)
+  double mine[4] = {r.bytes, r.messages, r.start_checked, r.start_differ};
+  double all[4] = {0.0, 0.0, 0.0, 0.0};
+  if (comm->nprocs > 1) MPI_Allreduce(mine, all, 4, MPI_DOUBLE, MPI_SUM, world);
   const double bytes = all[0], messages = all[1];
   const double n = (double) r.steps;
   // Where a rank's time went, the least and the most of any rank per part, in ms per step:
@@ -1618,6 +1632,12 @@ void FixHardSphere::post_run()
                    r.collectives / n, r.halos / n, messages / n, r.neighbour / n,
                    r.forwards / n, r.round_fails / n, 1e-3 * bytes / n, comm->nprocs, least(10),
                    most(10), r.step_redos);
+  if (wsettings.start_check && comm->nprocs > 1)
+    utils::logmesg(lmp,
+                   "Fix hardsphere: start points of the steps' first windows checked: {:.0f} "
+                   "candidate pairs with a foreign atom, {:.0f} of them with that atom's start "
+                   "point or bound rate formed here unlike its owner's\n",
+                   all[2], all[3]);
   if (most(0) + most(1) + most(2) + most(3) > 0.0) {
     utils::logmesg(lmp,
                    "Fix hardsphere: a rank's search and windows, ms per step (least to most of "

@@ -707,6 +707,7 @@ struct Spanning {
   double forwards = 0.0;       // f_hs[32]: rounds passing entries on, per step
   double round_fails = 0.0;    // f_hs[33]: passes gathered again after those rounds, per step
   double step_redos = 0.0;     // f_hs[34]: steps of planned windows done again, per step
+  double ghost_updates = 0.0;  // f_hs[25]: the fix's ghost updates per step
 };
 
 // kind "fluid": 12^3 elastic spheres of diameter 1 on a simple cubic lattice at packing
@@ -761,7 +762,7 @@ Spanning run_dense(MPI_Comm comm, const std::string &kind, const std::string &or
   lmp.commands({"timestep 0.01", "thermo 0",
                 "fix avg all ave/time 1 " + ns + " " + ns +
                     " f_hs[9] f_hs[11] f_hs[16] f_hs[27] f_hs[28] f_hs[29] f_hs[30]"
-                    " f_hs[24] f_hs[7] f_hs[32] f_hs[33] f_hs[34]",
+                    " f_hs[24] f_hs[7] f_hs[32] f_hs[33] f_hs[34] f_hs[25]",
                 "run " + ns});
   Spanning s;
   s.x = lmp.gather("x", 3);
@@ -781,6 +782,7 @@ Spanning run_dense(MPI_Comm comm, const std::string &kind, const std::string &or
   s.forwards = lmp.fix_vector("avg", 9);
   s.round_fails = lmp.fix_vector("avg", 10);
   s.step_redos = lmp.fix_vector("avg", 11);
+  s.ghost_updates = lmp.fix_vector("avg", 12);
   return s;
 }
 
@@ -1368,6 +1370,61 @@ TEST(FixHardSphereMPI, RestartKeepsThePressureAcrossRanks)
     lmp.commands({"run 0"});
     EXPECT_NEAR(lmp.thermo("press"), press, 1e-13 * press) << "continued on rank 0 alone";
     std::remove(file.c_str());
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+}
+
+// The foreign atoms' start points and bound rates of each step's first window are formed by
+// the rank from the step's own ghost update (WindowSettings::start_from_step), without a ghost
+// update of their own: one fewer per step than with HSGPU_START_FROM_STEP=0, the same bits;
+// with HSGPU_START_CHECK=1 both are made and every value formed equals its owner's, bit for
+// bit (on two ranks with the same bounds everywhere, on more with the smaller bounds at the
+// ranks' edges; the fluid, and the pile with its floor, gravity and restitution).
+TEST(FixHardSphereMPI, FirstWindowStartPointsComeFromTheStepsGhostUpdate)
+{
+  int me = 0, np = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  if (np < 2) GTEST_SKIP() << "foreign atoms on two ranks or more";
+  const Spanning exchanged = fluid_with({{"HSGPU_START_FROM_STEP", "0"}});
+  const Spanning formed = fluid_with({{"HSGPU_START_FROM_STEP", nullptr}});
+  expect_same_bits(formed, exchanged);
+  EXPECT_GE(exchanged.ghost_updates - formed.ghost_updates, 1.0 - 1e-9)
+      << "ghost updates per step: " << exchanged.ghost_updates << " -> " << formed.ghost_updates;
+  const std::string tag = "_np" + std::to_string(np) + ".log";
+  Spanning fluid, pile;
+  {
+    ScopedEnv check("HSGPU_START_CHECK", "1");
+    fluid = run_dense(MPI_COMM_WORLD, "fluid", "parallel", 100, "2.5", "gather",
+                      "hs_start_fluid" + tag);
+    pile = run_dense(MPI_COMM_WORLD, "pile", "parallel", 200, "2.5", "gather",
+                     "hs_start_pile" + tag);
+  }
+  expect_same_bits(fluid, formed);
+  if (me == 0) {
+    auto checked = [](const std::string &log, double &pairs, double &differ) {
+      const std::string text = hsgpu_test::file_text(log);
+      std::smatch m;
+      if (!std::regex_search(text, m,
+                             std::regex("first windows checked: ([0-9]+) candidate pairs with a "
+                                        "foreign atom, ([0-9]+) of them")))
+        return false;
+      pairs = std::stod(m[1].str());
+      differ = std::stod(m[2].str());
+      return true;
+    };
+    double fp = 0.0, fd = -1.0, pp = 0.0, pd = -1.0;
+    ASSERT_TRUE(checked("hs_start_fluid" + tag, fp, fd)) << "the check's line in the log";
+    ASSERT_TRUE(checked("hs_start_pile" + tag, pp, pd)) << "the check's line in the log";
+    EXPECT_GT(fp, 1000.0) << "pairs with a foreign atom checked, the fluid";
+    EXPECT_GT(pp, 1000.0) << "pairs with a foreign atom checked, the pile";
+    EXPECT_EQ(fd, 0.0) << "start points or rates formed unlike the owners', the fluid";
+    EXPECT_EQ(pd, 0.0) << "start points or rates formed unlike the owners', the pile";
+    std::printf("[ MPI      ] %d ranks, fluid, 100 steps: %.4g ghost updates per step (%.4g with "
+                "a ghost update for the first window's start points); checked against the "
+                "owners': %.0f pairs with a foreign atom in the fluid, %.0f in the pile, %.0f "
+                "and %.0f unlike\n",
+                np, formed.ghost_updates, exchanged.ghost_updates, fp, pp, fd, pd);
   }
   MPI_Barrier(MPI_COMM_WORLD);
 }

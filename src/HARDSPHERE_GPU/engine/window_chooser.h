@@ -79,6 +79,17 @@ namespace Collide {
     // next steps too (8, twice as many after each further such step, at most 64).  false: a
     // reduction per window length tried and per window's check.  No result bit depends on it.
     bool step_checks = true;
+    // On several ranks (the host step driver without the view): the foreign nodes' start
+    // points and bound rates of each step's first window are formed here from the owners'
+    // values of the step's own ghost update (WindowDriver::foreign_start()), without a ghost
+    // update of their own: at the step's start a body's start point is where it is, its rate
+    // follows from its velocity, and a foreign node in a candidate pair with a body here is
+    // next to another rank's atoms for its owner too (edge_factor).  false: a ghost update at
+    // every window start, the first too.  No result bit depends on it.
+    bool start_from_step = true;
+    // Both ways at the first window, the two compared (WindowStats::start_checked and
+    // start_differ; the owners' values are used).  A test aid.
+    bool start_check = false;
   };
 
   /// Relative margin on contact distances for round-off in the windows' join and check tests,

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <functional>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <utility>
 
@@ -274,14 +275,41 @@ namespace Collide {
       // Once per window start, not per length tried: the start points and bound rates to the
       // foreign nodes (a node's bound is its rate times the window's length, the product its
       // owner forms), and the gaps of the foreign edges there.
-      wstate.resize((size_t) 4 * nb);
-      for (int b = 0; b < nb; ++b) {
-        for (int d = 0; d < 3; ++d) wstate[(size_t) 4 * b + d] = bodies[b].w0[d];
-        wstate[(size_t) 4 * b + 3] = rate[b];
+      // At the step's first window they are formed here, from the owners' values of the
+      // step's own ghost update (WindowSettings::start_from_step), as start_points() forms
+      // them for the owner's body: every body is at its step start point (t0 = 0, tref = 0),
+      // and a foreign node in a candidate pair with a body here has a candidate partner owned
+      // by another rank, so its owner gives it the bound factor at the ranks' edges (only the
+      // nodes of such pairs are read).
+      const bool from_step = fstart && s.start_from_step && t0 == 0.0;
+      if (from_step) {
+        const double k = edge_bounds ? s.edge_factor : 1.0;
+        std::vector<double> &own = s.start_check ? fstep : fstate;
+        own.resize((size_t) 4 * nf);
+        for (int f = 0; f < nf; ++f) {
+          const double *x0 = fstart->data() + (size_t) 6 * f, *v = x0 + 3;
+          const double h = t0 - 0.0;    // drift_position() at t0 of a body with tref 0
+          for (int d = 0; d < 3; ++d) own[(size_t) 4 * f + d] = x0[d] + v[d] * h;
+          const double speed = std::sqrt(Contact::dot3(v, v));
+          own[(size_t) 4 * f + 3] = k * std::max(s.bound_factor * speed, speed_floor);
+        }
       }
-      times.edges_start += lap(clock);
-      ex.to_foreign(wstate, 4, fstate);
-      times.edges_ghosts += lap(clock);
+      if (!from_step || s.start_check) {
+        wstate.resize((size_t) 4 * nb);
+        for (int b = 0; b < nb; ++b) {
+          for (int d = 0; d < 3; ++d) wstate[(size_t) 4 * b + d] = bodies[b].w0[d];
+          wstate[(size_t) 4 * b + 3] = rate[b];
+        }
+        times.edges_start += lap(clock);
+        ex.to_foreign(wstate, 4, fstate);
+        times.edges_ghosts += lap(clock);
+      }
+      if (from_step && s.start_check)
+        for (const ForeignEdge &fe : fedges) {
+          const size_t at = (size_t) 4 * fe.node;
+          ++start_checked;
+          if (std::memcmp(&fstate[at], &fstep[at], 4 * sizeof(double)) != 0) ++start_differ;
+        }
       fgap.resize(fedges.size());
       for (size_t q = 0; !all && q < fedges.size(); ++q) {
         const ForeignEdge &fe = fedges[q];
@@ -1641,6 +1669,7 @@ namespace Collide {
     // every such hit a repair (in a settled pile, of the whole pile).
     speed_floor = floor_fraction_or(s, 0.25) * std::sqrt(vmax);
     stats = WindowStats();
+    start_checked = start_differ = 0;
     stats_gathers = 0;
     stats_neighbour = 0;
     stats_forwards = 0;
@@ -1732,6 +1761,8 @@ namespace Collide {
     } else if (planned) {
       planned_backoff = 8;
     }
+    stats.start_checked = start_checked;
+    stats.start_differ = start_differ;
   }
 
   /* The windows of the step (run() has set the step up), and the step's one reduction after

@@ -218,6 +218,10 @@ namespace Collide {
                                  // from every rank
     long step_redos = 0;         // steps of planned windows done again with a reduction per
                                  // window (WindowSettings::step_checks): 0 or 1 per run()
+    // WindowSettings::start_check, this rank's: foreign nodes in a candidate pair here whose
+    // first-window start point and bound rate were formed here and also sent by their owners,
+    // and of them those where the two differ in some bit (never expected)
+    long start_checked = 0, start_differ = 0;
   };
 
   /// Where a rank's run() spent its time, seconds summed over the calls (wall clock; the
@@ -267,6 +271,14 @@ namespace Collide {
     /// expected; the caller stops with an internal error).
     bool results_missing_last() const { return results_missing; }
 
+    /// The foreign nodes' values at the step's start from the step's own ghost update, for
+    /// the next run()s (WindowSettings::start_from_step): 6 per node (run()'s `foreign`), its
+    /// owner's start point X0 and drift velocity v as the owner's body has them, bit for bit;
+    /// nullptr: none (a ghost update at every window start).  The caller keeps them valid.
+    /// (A vector, not its data: a rank without foreign nodes has an empty one, and every
+    /// rank must choose alike whether the ghost update is made.)
+    void foreign_start(const std::vector<double> *x0v) { fstart = x0v; }
+
    private:
     WindowChooser chooser;
     std::vector<char> near_edge, near_next;    // local body next to another rank's atoms
@@ -295,6 +307,9 @@ namespace Collide {
     // foreign node's start point and bound rate; wdelta the length of the window last tried.
     std::vector<double> fgap;
     double wdelta = 0.0;
+    const std::vector<double> *fstart = nullptr;    // foreign_start()
+    std::vector<double> fstep;         // the first window's fstate formed here (start_check)
+    long start_checked = 0, start_differ = 0;    // this run()'s (WindowStats)
     bool start_cached = false;
     std::vector<Edge> wedges;    // local window edges
     std::vector<char> fjoined, ljoined;
