@@ -18,7 +18,10 @@
 #   HSGPU_SCALING="weak strong" picks the tables; HSGPU_POUR_STEPS the pour's steps (600);
 #   HSGPU_WEAK="lattice3d fluid pour" the weak table's scenes; HSGPU_STRONG_STEPS the strong
 #   table's steps (20);
-#   HSGPU_SPANNING=view|gather adds that `spanning` keyword to the fix (default: the fix's).
+#   HSGPU_SPANNING=view|gather adds that `spanning` keyword to the fix (default: the fix's);
+#   HSGPU_RUN_LIMIT=s stops a run after s seconds (a pile on many ranks may take hours): its
+#   row then gives the least the fix's step can have taken ("> t", the limit over the steps,
+#   setup included) and the most its efficiency can be ("< e"), and counts the runs stopped.
 #
 # Columns: the fix's own time per step after the run's first (its run summary; median, and the
 # least and most of the runs), LAMMPS's Loop
@@ -64,10 +67,18 @@ median() { sort -g | awk '{v[NR] = $1} END {print (NR % 2) ? v[(NR + 1) / 2] : 0
 
 # One run: prints "fixstep loop spanning gathers collectives ghostupdates bytes commleast
 # commmost spanningmost".
+# A run stopped at HSGPU_RUN_LIMIT prints "stopped" instead.
 one() {
   local np=$1 input=$2 log=$3; shift 3
-  (cd "$work" && mpirun -np "$np" --bind-to core "$lmp" -in "$input" -var plugin "$plugin" "$@" \
-    -log "$log" -echo none -screen none > "$log.out" 2>&1) ||
+  local limit=() rc=0
+  [ -z "${HSGPU_RUN_LIMIT:-}" ] || limit=(timeout --kill-after=30 "$HSGPU_RUN_LIMIT")
+  (cd "$work" && "${limit[@]}" mpirun -np "$np" --bind-to core "$lmp" -in "$input" -var plugin "$plugin" "$@" \
+    -log "$log" -echo none -screen none > "$log.out" 2>&1) || rc=$?
+  if [ "$rc" -eq 124 ] && [ -n "${HSGPU_RUN_LIMIT:-}" ]; then
+    echo stopped
+    return
+  fi
+  [ "$rc" -eq 0 ] ||
     { echo "run failed: $np ranks, $input $*" >&2; tail -n 8 "$work/$log" "$work/$log.out" >&2; exit 1; }
   awk '
     /^Loop time of/ {loop = $4; steps = $9}
@@ -122,16 +133,29 @@ table() {    # weak|strong cases...  Each case's rows are printed once its runs 
         read -r -a a <<< "$(size_args "$c" "$np")"
         one "$np" "in.${c#big_}" "log.$c.$np" "${a[@]:1}" >> "$work/rows.$c.$np"
         # (each run as it ends, on standard error: a row whose later runs do not end is kept)
-        echo "# ${c#big_}, $np ranks, run $((rep + 1)) of $reps: fix step $(tail -n 1 "$work/rows.$c.$np" | awk '{print $1}') ms" >&2
+        echo "# ${c#big_}, $np ranks, run $((rep + 1)) of $reps: fix step $(tail -n 1 "$work/rows.$c.$np" | awk '{print ($1 == "stopped") ? "- (stopped after '"${HSGPU_RUN_LIMIT:-}"' s)" : $1 " ms"}')" >&2
       done
     done
     for np in "${ranks[@]}"; do
       read -r -a a <<< "$(size_args "$c" "$np")"
-      local n=${a[0]} m=()
-      for k in 1 2 3 4 5 6 7 8 9 10; do m+=("$(awk -v k=$k '{print $k}' "$work/rows.$c.$np" | median)"); done
+      local n=${a[0]} m=() steps=0 stopped
+      for ((k = 1; k + 1 < ${#a[@]}; ++k)); do [ "${a[$k]}" != steps ] || steps=${a[$((k + 1))]}; done
+      stopped=$(grep -c '^stopped' "$work/rows.$c.$np" || true)
+      if [ "$stopped" -gt 0 ] && ! grep -qv '^stopped' "$work/rows.$c.$np"; then
+        # Every run stopped: the least the step took, the most the efficiency can be.
+        awk -v lab="${c#big_}" -v n="$n" -v np="$np" -v kind="$kind" -v b="$base" -v bn="$bn" \
+          -v bp="$bp" -v lim="$HSGPU_RUN_LIMIT" -v steps="$steps" -v k="$stopped" 'BEGIN {
+            fix = 1e3 * lim / steps
+            eff = (kind == "weak") ? (b / bn) / (fix / n) * bp / np : b * bp / (fix * np)
+            printf "| %s | %d | %d | > %.4g | %d of %d runs stopped after %s s | - | %s | - | - | - | - | - | - | - |\n",
+              lab, n, np, fix, k, k, lim, (b == "") ? "-" : sprintf("< %.0f%%", 100 * eff) }'
+        continue
+      fi
+      for k in 1 2 3 4 5 6 7 8 9 10; do m+=("$(grep -v '^stopped' "$work/rows.$c.$np" | awk -v k=$k '{print $k}' | median)"); done
       [ -n "$base" ] || { base=${m[0]}; bn=$n; bp=$np; }
       local spread
-      spread=$(awk '{print $1}' "$work/rows.$c.$np" | sort -g | awk '{v[NR] = $1} END {printf (NR > 1) ? "%.4g-%.4g" : "-", v[1], v[NR]}')
+      spread=$(grep -v '^stopped' "$work/rows.$c.$np" | awk '{print $1}' | sort -g | awk '{v[NR] = $1} END {printf (NR > 1) ? "%.4g-%.4g" : "-", v[1], v[NR]}')
+      [ "$stopped" -eq 0 ] || spread="$spread ($stopped stopped)"
       awk -v lab="${c#big_}" -v n="$n" -v np="$np" -v kind="$kind" -v b="$base" -v bn="$bn" -v bp="$bp" \
         -v fix="${m[0]}" -v loop="${m[1]}" -v span="${m[2]}" -v gath="${m[3]}" -v coll="${m[4]}" \
         -v ghost="${m[5]}" -v bytes="${m[6]}" -v clo="${m[7]}" -v chi="${m[8]}" -v shi="${m[9]}" \
