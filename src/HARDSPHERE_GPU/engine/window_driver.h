@@ -218,9 +218,10 @@ namespace Collide {
                                  // from every rank
     long step_redos = 0;         // steps of planned windows done again with a reduction per
                                  // window (WindowSettings::step_checks): 0 or 1 per run()
-    // WindowSettings::start_check, this rank's: foreign nodes in a candidate pair here whose
-    // first-window start point and bound rate were formed here and also sent by their owners,
-    // and of them those where the two differ in some bit (never expected)
+    // WindowSettings::start_check, this rank's: candidate pairs with a foreign node whose
+    // first-window start point and bound rate were formed here and also sent by its owner (a
+    // node counted once per pair), and of them those where the two differ in some bit (never
+    // expected)
     long start_checked = 0, start_differ = 0;
   };
 
