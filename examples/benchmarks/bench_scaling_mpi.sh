@@ -118,6 +118,13 @@ size_args() {    # case np -> prints "N args..."
   esac
 }
 
+# The efficiency of a row's fix step ($1 ms, N = $2 on $3 ranks) against the table's first row
+# (base ms, bn atoms on bp ranks; table()'s), as a fraction.
+efficiency() {
+  awk -v kind="$kind" -v b="$base" -v bn="$bn" -v bp="$bp" -v fix="$1" -v n="$2" -v np="$3" \
+    'BEGIN {print (kind == "weak") ? (b / bn) / (fix / n) * bp / np : b * bp / (fix * np)}'
+}
+
 table() {    # weak|strong cases...  Each case's rows are printed once its runs are done.
   local kind=$1; shift
   local c np rep
@@ -143,12 +150,13 @@ table() {    # weak|strong cases...  Each case's rows are printed once its runs 
       stopped=$(grep -c '^stopped' "$work/rows.$c.$np" || true)
       if [ "$stopped" -gt 0 ] && ! grep -qv '^stopped' "$work/rows.$c.$np"; then
         # Every run stopped: the least the step took, the most the efficiency can be.
-        awk -v lab="${c#big_}" -v n="$n" -v np="$np" -v kind="$kind" -v b="$base" -v bn="$bn" \
-          -v bp="$bp" -v lim="$HSGPU_RUN_LIMIT" -v steps="$steps" -v k="$stopped" 'BEGIN {
-            fix = 1e3 * lim / steps
-            eff = (kind == "weak") ? (b / bn) / (fix / n) * bp / np : b * bp / (fix * np)
+        local least eff=-
+        least=$(awk -v lim="$HSGPU_RUN_LIMIT" -v steps="$steps" 'BEGIN {print 1e3 * lim / steps}')
+        [ -z "$base" ] || eff=$(efficiency "$least" "$n" "$np")
+        awk -v lab="${c#big_}" -v n="$n" -v np="$np" -v lim="$HSGPU_RUN_LIMIT" -v fix="$least" \
+          -v eff="$eff" -v k="$stopped" 'BEGIN {
             printf "| %s | %d | %d | > %.4g | %d of %d runs stopped after %s s | - | %s | - | - | - | - | - | - | - |\n",
-              lab, n, np, fix, k, k, lim, (b == "") ? "-" : sprintf("< %.0f%%", 100 * eff) }'
+              lab, n, np, fix, k, k, lim, (eff == "-") ? "-" : sprintf("< %.0f%%", 100 * eff) }'
         continue
       fi
       for k in 1 2 3 4 5 6 7 8 9 10; do m+=("$(grep -v '^stopped' "$work/rows.$c.$np" | awk -v k=$k '{print $k}' | median)"); done
@@ -156,11 +164,10 @@ table() {    # weak|strong cases...  Each case's rows are printed once its runs 
       local spread
       spread=$(grep -v '^stopped' "$work/rows.$c.$np" | awk '{print $1}' | sort -g | awk '{v[NR] = $1} END {printf (NR > 1) ? "%.4g-%.4g" : "-", v[1], v[NR]}')
       [ "$stopped" -eq 0 ] || spread="$spread ($stopped stopped)"
-      awk -v lab="${c#big_}" -v n="$n" -v np="$np" -v kind="$kind" -v b="$base" -v bn="$bn" -v bp="$bp" \
+      awk -v lab="${c#big_}" -v n="$n" -v np="$np" -v eff="$(efficiency "${m[0]}" "$n" "$np")" \
         -v fix="${m[0]}" -v loop="${m[1]}" -v span="${m[2]}" -v gath="${m[3]}" -v coll="${m[4]}" \
         -v ghost="${m[5]}" -v bytes="${m[6]}" -v clo="${m[7]}" -v chi="${m[8]}" -v shi="${m[9]}" \
         -v spread="$spread" 'BEGIN {
-          eff = (kind == "weak") ? (b / bn) / (fix / n) * bp / np : b * bp / (fix * np)
           printf "| %s | %d | %d | %.2f | %s | %.2f | %.0f%% | %.0f | %.2f | %.0f | %.0f | %.3g | %.3g-%.3g | %.3g |\n",
             lab, n, np, fix, spread, loop, 100 * eff, span, gath, coll, ghost, bytes, clo, chi, shi }'
     done

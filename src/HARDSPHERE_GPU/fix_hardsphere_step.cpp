@@ -390,10 +390,8 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
     fstart.resize((size_t) 6 * fnodes.size());
     for (size_t f = 0; f < fnodes.size(); ++f) {
       const double *g = &gdata[(size_t) NFWD * foreign_ghost[f]];
-      for (int d = 0; d < 3; ++d) {
-        fstart[6 * f + d] = g[d] - g[3 + d] * drift_dt;
-        fstart[6 * f + 3 + d] = g[3 + d];
-      }
+      HSGPU::Collide::start_point(g, g + 3, drift_dt, &fstart[6 * f]);
+      for (int d = 0; d < 3; ++d) fstart[6 * f + 3 + d] = g[3 + d];
     }
   }
 
@@ -440,9 +438,9 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
     const int node = bj < 0 ? foreign_of[j - nlocal] : -1;
     if (bj < 0 && node < 0) continue;
     double out2 = 0.0;
+    HSGPU::Collide::start_point(g, g + 3, drift_dt, &sraw[3 * np]);
     for (int d = 0; d < 3; ++d) {
-      const double p = g[d] - g[3 + d] * drift_dt;
-      sraw[3 * np + d] = p;
+      const double p = sraw[3 * np + d];
       spos[3 * np + d] = periodic[d] ? p + std::nearbyint((x[j][d] - p) / prd[d]) * prd[d] : p;
       const double e =
           std::max(std::max(blo[d] - spos[3 * np + d], spos[3 * np + d] - bhi[d]), 0.0);
@@ -629,7 +627,7 @@ int FixHardSphere::build(double drift_dt, bool collect_pushes)
       if (!near_body[fe.body]) continue;
       const double *g = &gdata[(size_t) NFWD * fe.ghost];
       double X0j[3];
-      for (int d = 0; d < 3; ++d) X0j[d] = g[d] - g[3 + d] * drift_dt;
+      HSGPU::Collide::start_point(g, g + 3, drift_dt, X0j);
       pair_overlap(bodies[fe.body], X0j, g[6], rmass[fe.ghost], foreign_tag[fe.node], -1);
     }
   }

@@ -128,6 +128,15 @@ namespace Collide {
     return (f & 1) ? -1.0 : 1.0;
   }
 
+  /// The start point x - v dt of a step of length dt, from the position x and half-step
+  /// velocity v after the drift: the one expression that an atom's body (start_body()) and
+  /// its ghosts on other ranks (fix hardsphere's candidate search, overlap check and window
+  /// start points) all form, so that every rank has the same bits for an atom.
+  HSGPU_HD void start_point(const double *x, const double *v, double dt, double *p)
+  {
+    for (int d = 0; d < 3; ++d) p[d] = x[d] - v[d] * dt;
+  }
+
   /// A body at the start of a step of length dt, from an atom's state after the drift: its
   /// position x, half-step velocity v and force f (3 each); the start point is x - v dt and
   /// the acceleration f ftm2v / mass.  The one definition that the host (fix hardsphere) and
@@ -137,9 +146,10 @@ namespace Collide {
                            double ftm2v)
   {
     Body b{};
+    start_point(x, v, dt, b.X0);
     for (int d = 0; d < 3; ++d) {
       b.v[d] = v[d];
-      b.x[d] = b.X0[d] = x[d] - v[d] * dt;
+      b.x[d] = b.X0[d];
       b.a[d] = f[d] * ftm2v / mass;
       b.rest[d] = -1;
     }

@@ -226,6 +226,17 @@ namespace Collide {
 
   }    // namespace
 
+  /* A body's bound per unit of window length, from its drift velocity v: at least the
+     floor of the step's fastest drift, times edge_factor for a body next to another rank's
+     atoms (edge).  Its owner's rate and the one a rank forms for a foreign node at the step's
+     first window (window_edges()) come from here alike. */
+  double WindowDriver::bound_rate(const double *v, bool edge, const WindowSettings &s) const
+  {
+    const double speed = std::sqrt(Contact::dot3(v, v));
+    const double k = edge ? s.edge_factor : 1.0;
+    return k * std::max(s.bound_factor * speed, speed_floor);
+  }
+
   /* The window's start points (w0) of bodies[0 .. n), their bound rates and (gaps) the gaps
      of `edges` there: they depend on t0 only, so the chooser's tries of one window (several
      ends t1) compute them once (start_cached). */
@@ -238,9 +249,7 @@ namespace Collide {
       Body &bd = bodies[b];
       drift_position(bd, t0, bd.w0);
       bd.wexc2 = 0.0;
-      const double speed = std::sqrt(Contact::dot3(bd.v, bd.v));
-      const double k = (b < (int) near_edge.size() && near_edge[b]) ? s.edge_factor : 1.0;
-      rate[b] = k * std::max(s.bound_factor * speed, speed_floor);
+      rate[b] = bound_rate(bd.v, b < (int) near_edge.size() && near_edge[b], s);
     }
     egap.resize(edges.size());
     emargin.resize(edges.size());
@@ -283,15 +292,13 @@ namespace Collide {
       // nodes of such pairs are read).
       const bool from_step = fstart && s.start_from_step && t0 == 0.0;
       if (from_step) {
-        const double k = edge_bounds ? s.edge_factor : 1.0;
         std::vector<double> &own = s.start_check ? fstep : fstate;
         own.resize((size_t) 4 * nf);
         for (int f = 0; f < nf; ++f) {
           const double *x0 = fstart->data() + (size_t) 6 * f, *v = x0 + 3;
           const double h = t0 - 0.0;    // drift_position() at t0 of a body with tref 0
           for (int d = 0; d < 3; ++d) own[(size_t) 4 * f + d] = x0[d] + v[d] * h;
-          const double speed = std::sqrt(Contact::dot3(v, v));
-          own[(size_t) 4 * f + 3] = k * std::max(s.bound_factor * speed, speed_floor);
+          own[(size_t) 4 * f + 3] = bound_rate(v, edge_bounds, s);
         }
       }
       if (!from_step || s.start_check) {

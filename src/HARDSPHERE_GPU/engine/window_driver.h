@@ -430,6 +430,7 @@ namespace Collide {
                          double t0, double t1, Tally &tloc, Tally &tbnd, int &capped,
                          long (&acc)[5], long &largest, bool edges_made);
 
+    double bound_rate(const double *v, bool edge, const WindowSettings &s) const;
     void start_points(std::vector<Body> &bodies, int n, const std::vector<Edge> &edges, bool gaps,
                       double t0,
                       const WindowSettings &s);
