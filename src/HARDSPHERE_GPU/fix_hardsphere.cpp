@@ -628,6 +628,11 @@ void FixHardSphere::init()
   // many differed).  The same on all ranks.  No result bit depends on them.
   wsettings.start_from_step = env_switch(lmp, "HSGPU_START_FROM_STEP", wsettings.start_from_step);
   wsettings.start_check = env_switch(lmp, "HSGPU_START_CHECK", wsettings.start_check);
+  // With planned windows, the foreign atoms' later start points and each pass's excursions by
+  // messages to the neighbouring ranks holding only the atoms they need
+  // (WindowSettings::sparse_foreign, on by default); HSGPU_SPARSE_FOREIGN=0 makes them ghost
+  // updates, as before (for comparison).  The same on all ranks.  No result bit depends on it.
+  wsettings.sparse_foreign = env_switch(lmp, "HSGPU_SPARSE_FOREIGN", wsettings.sparse_foreign);
   // Tuning aid: HSGPU_EDGE_FACTOR and HSGPU_EDGE_HOPS set the window bounds of the atoms next to
   // another rank's (WindowSettings::edge_factor, edge_hops; no result bit depends on them).
   if (const char *e = std::getenv("HSGPU_EDGE_FACTOR"))

@@ -1428,3 +1428,32 @@ TEST(FixHardSphereMPI, FirstWindowStartPointsComeFromTheStepsGhostUpdate)
   }
   MPI_Barrier(MPI_COMM_WORLD);
 }
+
+// With planned windows (three ranks or more), the foreign atoms' start points at the later
+// windows of a step and their excursions after each pass go by one message to each
+// neighbouring rank, holding only the atoms in a candidate pair with an atom that rank owns
+// (WindowSettings::sparse_foreign), instead of a ghost update each: the same bits, at least one
+// ghost update per step fewer, no step done again for it.
+TEST(FixHardSphereMPI, SparseForeignUpdatesKeepTheBitsWithFewerGhostUpdates)
+{
+  int me = 0, np = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  if (np < 3) GTEST_SKIP() << "planned windows are for three ranks or more";
+  const Spanning ghosts = fluid_with({{"HSGPU_SPARSE_FOREIGN", "0"}});
+  const Spanning sparse = fluid_with({{"HSGPU_SPARSE_FOREIGN", nullptr}});
+  expect_same_bits(sparse, ghosts);
+  EXPECT_GT(sparse.windows, 1.0) << "windows per step";
+  // Each window's passes (two) and each later window's start: a ghost update each fewer.
+  EXPECT_GE(ghosts.ghost_updates - sparse.ghost_updates, 2.0 * sparse.windows - 0.1)
+      << "ghost updates per step: " << ghosts.ghost_updates << " -> " << sparse.ghost_updates;
+  EXPECT_LE(sparse.step_redos, ghosts.step_redos) << "steps done again";
+  EXPECT_EQ(sparse.round_fails, ghosts.round_fails) << "passes gathered again";
+  if (me == 0)
+    std::printf("[ MPI      ] %d ranks, fluid, 100 steps: %.4g ghost updates per step (%.4g "
+                "without the messages to the neighbouring ranks), %.3g windows per step, %.3g "
+                "steps done again per step; the same %.0f collisions\n",
+                np, sparse.ghost_updates, ghosts.ghost_updates, sparse.windows, sparse.step_redos,
+                sparse.collisions);
+  MPI_Barrier(MPI_COMM_WORLD);
+}

@@ -90,6 +90,14 @@ namespace Collide {
     // Both ways at the first window, the two compared (WindowStats::start_checked and
     // start_differ; the owners' values are used).  A test aid.
     bool start_check = false;
+    // With planned windows (step_checks): what the foreign nodes need from their owners
+    // inside a step (the later windows' start points and bound rates, each pass's excursions)
+    // goes in one message to each neighbouring rank, holding only the bodies in a candidate
+    // pair with an atom that rank owns, instead of a ghost update (LAMMPS's forward
+    // communication: every ghost, one swap after another).  Where a message does not bring
+    // what a rank expects, the step is done again with the ghost updates.  false: the ghost
+    // updates.  No result bit depends on it.
+    bool sparse_foreign = true;
   };
 
   /// Relative margin on contact distances for round-off in the windows' join and check tests,

@@ -237,6 +237,113 @@ namespace Collide {
     return k * std::max(s.bound_factor * speed, speed_floor);
   }
 
+  /* The lists of sparse_to_foreign(), once per step: for each neighbouring rank, the local
+     bodies in a foreign edge with a node it owns (in ID order), and the foreign nodes of the
+     foreign edges as the messages bring them (by their owners' places among the neighbouring
+     ranks, then by ID).  The two ranks of a pair across them each hold it as a foreign edge
+     (the candidate search is the same on both), so what a rank sends another is what that one
+     expects; a node whose owner is not a neighbouring rank (never expected) makes the step's
+     results missing. */
+  void WindowDriver::sparse_lists(const std::vector<Body> &bodies,
+                                  const std::vector<ForeignEdge> &fedges,
+                                  const std::vector<ForeignNode> &foreign, Exchange &ex)
+  {
+    const std::vector<int> &nbrs = *ex.neighbours();
+    const int nn = (int) nbrs.size(), nf = (int) foreign.size(), nb = (int) bodies.size();
+    // Each node's owner's place among the neighbouring ranks (-1: none).
+    sf_nbr.assign(nf, -1);
+    for (int f = 0; f < nf; ++f) {
+      const auto it = std::lower_bound(nbrs.begin(), nbrs.end(), foreign[f].owner);
+      if (it != nbrs.end() && *it == foreign[f].owner) sf_nbr[f] = (int) (it - nbrs.begin());
+    }
+    // Bodies by destination (a counting sort over the foreign edges; a body once per
+    // destination: sf_stamp holds the last destination it was listed for, plus one).
+    std::vector<int> &count = sf_start;
+    count.assign(nn + 1, 0);
+    std::vector<char> need(nf, 0);
+    for (const ForeignEdge &fe : fedges) {
+      need[fe.node] = 1;
+      if (sf_nbr[fe.node] < 0)
+        results_missing = true;
+      else
+        ++count[sf_nbr[fe.node] + 1];
+    }
+    for (int k = 0; k < nn; ++k) count[k + 1] += count[k];
+    std::vector<int> all(count[nn]), at(count.begin(), count.end() - 1);
+    for (const ForeignEdge &fe : fedges)
+      if (sf_nbr[fe.node] >= 0) all[at[sf_nbr[fe.node]]++] = fe.body;
+    sf_stamp.assign(nb, 0);
+    sf_dest.clear();
+    sf_body.clear();
+    std::vector<int> starts{0};
+    for (int k = 0; k < nn; ++k) {
+      const size_t from = sf_body.size();
+      for (int q = count[k]; q < count[k + 1]; ++q) {
+        const int b = all[q];
+        if (sf_stamp[b] == k + 1) continue;
+        sf_stamp[b] = k + 1;
+        sf_body.push_back(b);
+      }
+      if (sf_body.size() == from) continue;
+      std::sort(sf_body.begin() + from, sf_body.end(),
+                [&](int a, int c) { return bodies[a].id < bodies[c].id; });
+      sf_dest.push_back(nbrs[k]);
+      starts.push_back((int) sf_body.size());
+    }
+    sf_start.swap(starts);
+    // The nodes expected: by their owners' places, then by ID.
+    sf_node.clear();
+    for (int f = 0; f < nf; ++f)
+      if (need[f] && sf_nbr[f] >= 0) sf_node.push_back(f);
+    std::sort(sf_node.begin(), sf_node.end(), [&](int a, int c) {
+      return sf_nbr[a] != sf_nbr[c] ? sf_nbr[a] < sf_nbr[c] : foreign[a].id < foreign[c].id;
+    });
+    sf_send.resize(sf_dest.size());
+    sf_ready = true;
+  }
+
+  /* nval values of each local body (put(b, o) writes them at o) to the foreign nodes of the
+     foreign edges (out: nval per node; the other nodes' values are left as they were): one
+     message to each neighbouring rank with the bodies it needs, each as its ID and values,
+     where a ghost update would send every body's to every ghost, one swap after another
+     (WindowSettings::sparse_foreign).  The same values as a ghost update brings.  Where a
+     message does not bring what this rank expects (never expected), the step's results are
+     missing and the step is done again with the ghost updates (planned windows only). */
+  template <class Put>
+  void WindowDriver::sparse_to_foreign(const std::vector<Body> &bodies, int nval, Put put,
+                                       const std::vector<ForeignEdge> &fedges,
+                                       const std::vector<ForeignNode> &foreign,
+                                       std::vector<double> &out, Exchange &ex)
+  {
+    if (!sf_ready) sparse_lists(bodies, fedges, foreign, ex);
+    for (size_t k = 0; k < sf_dest.size(); ++k) {
+      std::vector<double> &o = sf_send[k];
+      o.resize((size_t) (1 + nval) * (sf_start[k + 1] - sf_start[k]));
+      double *w = o.data();
+      for (int q = sf_start[k]; q < sf_start[k + 1]; ++q, w += 1 + nval) {
+        const int b = sf_body[q];
+        w[0] = (double) bodies[b].id;
+        put(b, w + 1);
+      }
+    }
+    ex.to_neighbours(sf_dest, sf_send, sf_recv);
+    out.resize((size_t) nval * foreign.size());
+    const size_t n = sf_node.size();
+    if (sf_recv.size() != (size_t) (1 + nval) * n) {
+      results_missing = true;
+      return;
+    }
+    const double *r = sf_recv.data();
+    for (size_t q = 0; q < n; ++q, r += 1 + nval) {
+      const int f = sf_node[q];
+      if (r[0] != (double) foreign[f].id) {
+        results_missing = true;
+        return;
+      }
+      std::copy(r + 1, r + 1 + nval, out.begin() + (size_t) nval * f);
+    }
+  }
+
   /* The window's start points (w0) of bodies[0 .. n), their bound rates and (gaps) the gaps
      of `edges` there: they depend on t0 only, so the chooser's tries of one window (several
      ends t1) compute them once (start_cached). */
@@ -302,13 +409,26 @@ namespace Collide {
         }
       }
       if (!from_step || s.start_check) {
-        wstate.resize((size_t) 4 * nb);
-        for (int b = 0; b < nb; ++b) {
-          for (int d = 0; d < 3; ++d) wstate[(size_t) 4 * b + d] = bodies[b].w0[d];
-          wstate[(size_t) 4 * b + 3] = rate[b];
+        // (By messages to the neighbouring ranks at the later windows of planned ones.)
+        const bool sparse = sparse_now && t0 > 0.0;
+        if (!sparse) {
+          wstate.resize((size_t) 4 * nb);
+          for (int b = 0; b < nb; ++b) {
+            for (int d = 0; d < 3; ++d) wstate[(size_t) 4 * b + d] = bodies[b].w0[d];
+            wstate[(size_t) 4 * b + 3] = rate[b];
+          }
         }
         times.edges_start += lap(clock);
-        ex.to_foreign(wstate, 4, fstate);
+        if (sparse)
+          sparse_to_foreign(
+              bodies, 4,
+              [&](int b, double *o) {
+                for (int d = 0; d < 3; ++d) o[d] = bodies[b].w0[d];
+                o[3] = rate[b];
+              },
+              fedges, foreign, fstate, ex);
+        else
+          ex.to_foreign(wstate, 4, fstate);
         times.edges_ghosts += lap(clock);
       }
       if (from_step && s.start_check)
@@ -1276,7 +1396,11 @@ namespace Collide {
                                           int &capped, bool &failed, Check check)
   {
     const int nb = (int) bodies.size();
-    ex.to_foreign(lexc, 1, fexc);
+    if (sparse_now)
+      sparse_to_foreign(
+          bodies, 1, [&](int b, double *o) { o[0] = lexc[b]; }, fedges, foreign, fexc, ex);
+    else
+      ex.to_foreign(lexc, 1, fexc);
     long joined = 0;
     for (size_t q = 0; q < edges.size(); ++q) {
       if (ljoined[q]) continue;
@@ -1752,6 +1876,10 @@ namespace Collide {
               s.fixed_rounds > 0 && ex.neighbours() != nullptr && neighbour_skip == 0 &&
               planned_skip == 0 && !use_view;
     if (planned_skip > 0) --planned_skip;
+    // (The foreign nodes' values by messages to the neighbouring ranks: planned windows only,
+    // whose step is done again where one did not bring what a rank expects.)
+    sparse_now = planned && s.sparse_foreign && ex.neighbours() != nullptr;
+    sf_ready = false;
     run_windows(bodies, edges, fedges, foreign, p, s, backend, ex, mine, stats, nb, nv, use_view,
                 target);
     if (planned && planned_bad) {
@@ -1760,6 +1888,7 @@ namespace Collide {
       bodies.assign(start.begin(), start.end());
       if (tally_virial) std::fill(body_virial, body_virial + 6 * (size_t) nb, 0.0);
       planned = false;
+      sparse_now = false;
       planned_skip = planned_backoff;
       planned_backoff = std::min(2 * planned_backoff, 64);
       run_windows(bodies, edges, fedges, foreign, p, s, backend, ex, mine, stats, nb, nv, use_view,

@@ -310,6 +310,24 @@ namespace Collide {
     double wdelta = 0.0;
     const std::vector<double> *fstart = nullptr;    // foreign_start()
     std::vector<double> fstep;         // the first window's fstate formed here (start_check)
+    // The foreign nodes' values by messages to the neighbouring ranks (sparse_to_foreign(),
+    // WindowSettings::sparse_foreign), lists made once per step (sf_ready): the neighbouring
+    // ranks this rank sends to (sf_dest) and, for sf_dest[k], its bodies in a foreign edge with
+    // a node that rank owns, in ID order (sf_body[sf_start[k] .. sf_start[k + 1])); the
+    // foreign nodes of the foreign edges in the order the messages bring them (by their
+    // owners' ranks, then by ID).
+    bool sparse_now = false;    // this run()'s windows use them (planned windows)
+    bool sf_ready = false;
+    std::vector<int> sf_dest, sf_start, sf_body, sf_node, sf_nbr, sf_stamp;
+    std::vector<std::vector<double>> sf_send;
+    std::vector<double> sf_recv;
+    template <class Put>
+    void sparse_to_foreign(const std::vector<Body> &bodies, int nval, Put put,
+                           const std::vector<ForeignEdge> &fedges,
+                           const std::vector<ForeignNode> &foreign, std::vector<double> &out,
+                           Exchange &ex);
+    void sparse_lists(const std::vector<Body> &bodies, const std::vector<ForeignEdge> &fedges,
+                      const std::vector<ForeignNode> &foreign, Exchange &ex);
     long start_checked = 0, start_differ = 0;    // this run()'s (WindowStats)
     bool start_cached = false;
     std::vector<Edge> wedges;    // local window edges
