@@ -633,6 +633,9 @@ void FixHardSphere::init()
   // (WindowSettings::sparse_foreign, on by default); HSGPU_SPARSE_FOREIGN=0 makes them ghost
   // updates, as before (for comparison).  The same on all ranks.  No result bit depends on it.
   wsettings.sparse_foreign = env_switch(lmp, "HSGPU_SPARSE_FOREIGN", wsettings.sparse_foreign);
+  // HSGPU_SPARSE_DROP=1: rank 0 leaves an atom out of its first such message of each step, and
+  // the step is done again (a test aid for that way back).
+  wsettings.sparse_drop = env_switch(lmp, "HSGPU_SPARSE_DROP", wsettings.sparse_drop);
   // Tuning aid: HSGPU_EDGE_FACTOR and HSGPU_EDGE_HOPS set the window bounds of the atoms next to
   // another rank's (WindowSettings::edge_factor, edge_hops; no result bit depends on them).
   if (const char *e = std::getenv("HSGPU_EDGE_FACTOR"))

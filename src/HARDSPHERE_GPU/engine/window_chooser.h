@@ -98,6 +98,9 @@ namespace Collide {
     // what a rank expects, the step is done again with the ghost updates.  false: the ghost
     // updates.  No result bit depends on it.
     bool sparse_foreign = true;
+    // A test aid: rank 0's first such message of each step leaves out its last atom, so that
+    // its neighbour does not get what it expects (the step is done again).
+    bool sparse_drop = false;
   };
 
   /// Relative margin on contact distances for round-off in the windows' join and check tests,

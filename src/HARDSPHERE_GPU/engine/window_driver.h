@@ -317,6 +317,7 @@ namespace Collide {
     // foreign nodes of the foreign edges in the order the messages bring them (by their
     // owners' ranks, then by ID).
     bool sparse_now = false;    // this run()'s windows use them (planned windows)
+    bool sparse_drop = false;   // WindowSettings::sparse_drop, until this step's first message
     bool sf_ready = false;
     std::vector<int> sf_dest, sf_start, sf_body, sf_node, sf_nbr, sf_stamp;
     std::vector<std::vector<double>> sf_send;
