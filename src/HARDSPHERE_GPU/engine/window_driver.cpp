@@ -486,12 +486,20 @@ namespace Collide {
     // scaled to the step's target, for the chooser; window_seen gets the larger part itself
     // (this rank's only, with fixed windows).
     // The groups themselves are placed by window_groups(), once the window is chosen.
+    // (A foreign node joins a group with a body here through a joined foreign edge only (the
+    // unions are of the window's edges): the others, most of the ghosts, are alone and weigh
+    // nothing here.)
     fill.assign(nb + nf, 0);
     isb.assign(nb + nf, 0);    // roots of the groups with a foreign node (as window_groups())
-    for (int b = 0; b < nb + nf; ++b) {
-      const int r = uf.find(b);
+    for (int b = 0; b < nb; ++b) ++fill[uf.find(b)];
+    fseen.assign(nf, 0);
+    for (int q : fwin) {
+      const int f = fedges[q].node;
+      if (fseen[f]) continue;
+      fseen[f] = 1;
+      const int r = uf.find(nb + f);
       ++fill[r];
-      if (b >= nb) isb[r] = 1;
+      isb[r] = 1;
     }
     double l[2] = {0.0, 0.0};
     for (int b = 0; b < nb; ++b) {
@@ -514,10 +522,10 @@ namespace Collide {
 
   /* The local groups of the window last set up by window_edges() (gstart/gmembers; boundary
      groups are left out, their roots flagged in isb). */
-  void WindowDriver::window_groups(int nb, int nf)
+  void WindowDriver::window_groups(int nb, int nf, const std::vector<ForeignEdge> &fedges)
   {
     isb.assign(nb + nf, 0);
-    for (int k = 0; k < nf; ++k) isb[uf.find(nb + k)] = 1;
+    for (int q : fwin) isb[uf.find(nb + fedges[q].node)] = 1;    // (as window_edges())
     group_by_root(uf, nb, &isb, gstart, gmembers, fill, nlocal_groups, group_pos);
   }
 
@@ -542,7 +550,8 @@ namespace Collide {
      of bsent's bodies) goes to the ranks that own a foreign node of its group here; what they
      send comes back into `recv` after this rank's own entries.  Returns false where the
      exchange has no point-to-point path. */
-  bool WindowDriver::neighbour_gather(const std::vector<ForeignNode> &foreign, int nb,
+  bool WindowDriver::neighbour_gather(const std::vector<ForeignNode> &foreign,
+                                      const std::vector<ForeignEdge> &fedges, int nb,
                                       int nentry, Exchange &ex, long &mine_off)
   {
     const int nf = (int) foreign.size();
@@ -555,9 +564,15 @@ namespace Collide {
     for (int b = 0; b < nb && !gather_wide; ++b)
       if (bchosen[b]) mine[uf.find(b)] = 1;
     rootrank.clear();
-    for (int k = 0; k < nf; ++k) {
-      const int r = uf.find(nb + k);
-      if (mine[r]) rootrank.emplace_back(r, foreign[k].owner);
+    if (gather_wide) {
+      for (int k = 0; k < nf; ++k) rootrank.emplace_back(uf.find(nb + k), foreign[k].owner);
+    } else {
+      // (Those of the joined foreign edges: no other foreign node is in a group with a body
+      // here; a node of several comes once after the sort.)
+      for (int q : fwin) {
+        const int k = fedges[q].node, r = uf.find(nb + k);
+        if (mine[r]) rootrank.emplace_back(r, foreign[k].owner);
+      }
     }
     std::sort(rootrank.begin(), rootrank.end());
     rootrank.erase(std::unique(rootrank.begin(), rootrank.end()), rootrank.end());
@@ -884,7 +899,7 @@ namespace Collide {
       if (neighbour_skip > 0)
         --neighbour_skip;
       else
-        sparse = neighbour_gather(foreign, nb, nbody, ex, mine_off);
+        sparse = neighbour_gather(foreign, fedges, nb, nbody, ex, mine_off);
     }
     const bool tried = sparse;
     if (sparse) {
@@ -1460,7 +1475,7 @@ namespace Collide {
     // start; local groups that joined one leave the local tallies.
     const int nf = (int) foreign.size();
     isb.assign(nb + nf, 0);
-    for (int k = 0; k < nf; ++k) isb[uf.find(nb + k)] = 1;
+    for (int q : fwin) isb[uf.find(nb + fedges[q].node)] = 1;    // (as window_edges())
     for (int b = 0; b < nb; ++b) {
       if (!isb[uf.find(b)]) continue;
       const int g = group_of[b];
@@ -1672,7 +1687,7 @@ namespace Collide {
       largest = std::max(largest, window_seen);
       times.edges += lap(clock);
     }
-    window_groups(nb, (int) foreign.size());
+    window_groups(nb, (int) foreign.size(), fedges);
     times.groups += lap(clock);
     // Local groups, each with its own tally (a repair replaces a group's tally).
     // (Planned windows keep the first window's snapshot, the step start, in step_start: that

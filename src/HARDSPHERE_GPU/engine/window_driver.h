@@ -337,6 +337,7 @@ namespace Collide {
     UnionFind uf;
     UnionFind gunion;    // the gathered bodies' groups
     std::vector<char> isb;    // node is the root of a boundary group
+    std::vector<char> fseen;  // window_edges(): foreign node counted
     std::vector<int> gstart, gmembers, fill;
     int nlocal_groups = 0;
     // boundary groups, gathered
@@ -457,8 +458,9 @@ namespace Collide {
                       const std::vector<ForeignEdge> &fedges,
                       const std::vector<ForeignNode> &foreign, double t0, double t1,
                       const WindowSettings &s, Exchange &ex);
-    void window_groups(int nb, int nf);
-    bool neighbour_gather(const std::vector<ForeignNode> &foreign, int nb, int nentry,
+    void window_groups(int nb, int nf, const std::vector<ForeignEdge> &fedges);
+    bool neighbour_gather(const std::vector<ForeignNode> &foreign,
+                          const std::vector<ForeignEdge> &fedges, int nb, int nentry,
                           Exchange &ex, long &mine_off);
     void unpack_gathered(long mine_off, bool sparse);
     void unpack_more(size_t from);
