@@ -413,24 +413,20 @@ namespace Collide {
         }
       }
       if (!from_step || s.start_check) {
-        // (By messages to the neighbouring ranks at the later windows of planned ones.)
+        // A body's values: its window start point and bound rate.  (By messages to the
+        // neighbouring ranks at the later windows of planned ones.)
+        auto put = [&](int b, double *o) {
+          for (int d = 0; d < 3; ++d) o[d] = bodies[b].w0[d];
+          o[3] = rate[b];
+        };
         const bool sparse = sparse_now && t0 > 0.0;
         if (!sparse) {
           wstate.resize((size_t) 4 * nb);
-          for (int b = 0; b < nb; ++b) {
-            for (int d = 0; d < 3; ++d) wstate[(size_t) 4 * b + d] = bodies[b].w0[d];
-            wstate[(size_t) 4 * b + 3] = rate[b];
-          }
+          for (int b = 0; b < nb; ++b) put(b, &wstate[(size_t) 4 * b]);
         }
         times.edges_start += lap(clock);
         if (sparse)
-          sparse_to_foreign(
-              bodies, 4,
-              [&](int b, double *o) {
-                for (int d = 0; d < 3; ++d) o[d] = bodies[b].w0[d];
-                o[3] = rate[b];
-              },
-              fedges, foreign, fstate, ex);
+          sparse_to_foreign(bodies, 4, put, fedges, foreign, fstate, ex);
         else
           ex.to_foreign(wstate, 4, fstate);
         times.edges_ghosts += lap(clock);
@@ -522,10 +518,19 @@ namespace Collide {
 
   /* The local groups of the window last set up by window_edges() (gstart/gmembers; boundary
      groups are left out, their roots flagged in isb). */
-  void WindowDriver::window_groups(int nb, int nf, const std::vector<ForeignEdge> &fedges)
+  /* isb: the roots of the window's groups with a foreign node.  A foreign node joins a group
+     with a body here through a joined foreign edge only (the unions are of the window's
+     edges, fwin's among them), so only those edges' nodes are visited; the others, most of
+     the ghosts, are alone (as window_edges() counts them). */
+  void WindowDriver::boundary_roots(int nb, int nf, const std::vector<ForeignEdge> &fedges)
   {
     isb.assign(nb + nf, 0);
-    for (int q : fwin) isb[uf.find(nb + fedges[q].node)] = 1;    // (as window_edges())
+    for (int q : fwin) isb[uf.find(nb + fedges[q].node)] = 1;
+  }
+
+  void WindowDriver::window_groups(int nb, int nf, const std::vector<ForeignEdge> &fedges)
+  {
+    boundary_roots(nb, nf, fedges);
     group_by_root(uf, nb, &isb, gstart, gmembers, fill, nlocal_groups, group_pos);
   }
 
@@ -1473,9 +1478,7 @@ namespace Collide {
     if (check != Check::Local && c[0] == 0 && !failed) return 0;
     // Boundary roots anew; every body in a boundary group (old or new) back to the window
     // start; local groups that joined one leave the local tallies.
-    const int nf = (int) foreign.size();
-    isb.assign(nb + nf, 0);
-    for (int q : fwin) isb[uf.find(nb + fedges[q].node)] = 1;    // (as window_edges())
+    boundary_roots(nb, (int) foreign.size(), fedges);
     for (int b = 0; b < nb; ++b) {
       if (!isb[uf.find(b)]) continue;
       const int g = group_of[b];
@@ -1897,7 +1900,7 @@ namespace Collide {
     if (planned_skip > 0) --planned_skip;
     // (The foreign nodes' values by messages to the neighbouring ranks: planned windows only,
     // whose step is done again where one did not bring what a rank expects.)
-    sparse_now = planned && s.sparse_foreign && ex.neighbours() != nullptr;
+    sparse_now = planned && s.sparse_foreign;    // (planned: the neighbours are known)
     sparse_drop = s.sparse_drop;
     sf_ready = false;
     run_windows(bodies, edges, fedges, foreign, p, s, backend, ex, mine, stats, nb, nv, use_view,

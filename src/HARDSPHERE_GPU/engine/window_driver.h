@@ -458,6 +458,7 @@ namespace Collide {
                       const std::vector<ForeignEdge> &fedges,
                       const std::vector<ForeignNode> &foreign, double t0, double t1,
                       const WindowSettings &s, Exchange &ex);
+    void boundary_roots(int nb, int nf, const std::vector<ForeignEdge> &fedges);
     void window_groups(int nb, int nf, const std::vector<ForeignEdge> &fedges);
     bool neighbour_gather(const std::vector<ForeignNode> &foreign,
                           const std::vector<ForeignEdge> &fedges, int nb, int nentry,
