@@ -449,6 +449,7 @@ namespace Collide {
 
     wedges.clear();
     ljoined.assign(edges.size(), all ? 1 : 0);
+    jseq.resize(edges.size());
     if (all) wedges.assign(edges.begin(), edges.end());
     for (size_t q = 0; !all && q < edges.size(); ++q) {
       const Edge &e = edges[q];
@@ -819,7 +820,8 @@ namespace Collide {
     // edges are all among the view's (each sent by the owner of its lower-ID body).
     const int nb = gather_view ? nlocal_bodies : (int) bodies.size();
     bchosen.resize(nb);
-    for (int b = 0; b < nb; ++b) bchosen[b] = gather_view ? gsel[b] != 0 : isb[uf.find(b)] != 0;
+    // (Else the bodies in boundary groups: group_of is -1 for them alone (fallback_window()).)
+    for (int b = 0; b < nb; ++b) bchosen[b] = gather_view ? gsel[b] != 0 : group_of[b] < 0;
     auto chosen = [&](int b) { return bchosen[b] != 0; };
     // Window partners of each boundary body: those with a higher ID (the edge, sent with its
     // shift) and those with a lower one (their IDs, for the completeness of a gather to the
@@ -828,9 +830,39 @@ namespace Collide {
     std::vector<int> &pos = ppos;
     pstart.assign(nb + 1, 0);
     lstart.assign(nb + 1, 0);
-    for (const Edge &e : wedges) {
-      if (e.i < nb && chosen(e.i)) pstart[e.i + 1]++;
-      if (e.j < nb && chosen(e.j)) lstart[e.j + 1]++;
+    // Without the view, from the candidate pairs by body: each boundary body's window edges
+    // (bwq[bwstart[c] .. bwstart[c + 1]) for the c-th of them), in the order of wedges (the
+    // window's own in ascending order, then those joined since, as they were joined).
+    // (Over the view, a walk over wedges.)
+    const std::vector<Edge> &cand = *step_edges;
+    bwq.clear();
+    bwstart.assign(1, 0);
+    if (!gather_view) {
+      incidence(nb, cand);
+      for (int b = 0; b < nb; ++b) {
+        if (!chosen(b)) continue;
+        const size_t first = bwq.size();
+        for (int m = inc_start[b]; m < inc_start[b + 1]; ++m)
+          if (ljoined[inc_q[m]] == 1) bwq.push_back(inc_q[m]);
+        const size_t mid = bwq.size();
+        for (int m = inc_start[b]; m < inc_start[b + 1]; ++m)
+          if (ljoined[inc_q[m]] == 2) bwq.push_back(inc_q[m]);
+        if (bwq.size() - mid > 1)
+          std::sort(bwq.begin() + (long) mid, bwq.end(),
+                    [&](int x, int y) { return jseq[x] < jseq[y]; });
+        bwstart.push_back((int) bwq.size());
+        for (size_t m = first; m < bwq.size(); ++m) {
+          if (cand[bwq[m]].i == b)
+            pstart[b + 1]++;
+          else
+            lstart[b + 1]++;
+        }
+      }
+    } else {
+      for (const Edge &e : wedges) {
+        if (e.i < nb && chosen(e.i)) pstart[e.i + 1]++;
+        if (e.j < nb && chosen(e.j)) lstart[e.j + 1]++;
+      }
     }
     if (!gather_view)
       for (int q : fwin) {
@@ -854,9 +886,24 @@ namespace Collide {
       o[0] = (double) id;
       for (int d = 0; d < 3; ++d) o[1 + d] = shift[d];
     };
-    for (const Edge &e : wedges) {
-      if (e.i < nb && chosen(e.i)) put(e.i, bodies[e.j].id, e.shift);
-      if (e.j < nb && chosen(e.j)) lows[lpos[e.j]++] = (double) bodies[e.i].id;
+    if (!gather_view) {
+      int c = 0;
+      for (int b = 0; b < nb; ++b) {
+        if (!chosen(b)) continue;
+        for (int m = bwstart[c]; m < bwstart[c + 1]; ++m) {
+          const Edge &e = cand[bwq[m]];
+          if (e.i == b)
+            put(b, bodies[e.j].id, e.shift);
+          else
+            lows[lpos[b]++] = (double) bodies[e.i].id;
+        }
+        ++c;
+      }
+    } else {
+      for (const Edge &e : wedges) {
+        if (e.i < nb && chosen(e.i)) put(e.i, bodies[e.j].id, e.shift);
+        if (e.j < nb && chosen(e.j)) lows[lpos[e.j]++] = (double) bodies[e.i].id;
+      }
     }
     if (!gather_view)
       for (int q : fwin) {
@@ -1284,7 +1331,8 @@ namespace Collide {
     std::vector<char> redo(ng, 0);
     // Merge, and take the merged groups back to the window start.
     for (int q : failing) {
-      ljoined[q] = 1;
+      ljoined[q] = 2;
+      jseq[q] = (int) wedges.size();
       wedges.push_back(cand[q]);
       uf.unite(cand[q].i, cand[q].j);
       merged.unite(merged.find(group_of[cand[q].i]), merged.find(group_of[cand[q].j]));
@@ -1377,32 +1425,90 @@ namespace Collide {
     return 0;
   }
 
+  /* The step's candidate pairs by body (counting sort; each body's in ascending order). */
+  void WindowDriver::incidence(int nb, const std::vector<Edge> &edges)
+  {
+    if (inc_ready) return;
+    inc_ready = true;
+    inc_start.assign(nb + 1, 0);
+    for (const Edge &e : edges) {
+      ++inc_start[e.i + 1];
+      ++inc_start[e.j + 1];
+    }
+    for (int b = 0; b < nb; ++b) inc_start[b + 1] += inc_start[b];
+    inc_q.resize(inc_start[nb]);
+    std::vector<int> pos(inc_start.begin(), inc_start.end() - 1);
+    for (size_t q = 0; q < edges.size(); ++q) {
+      inc_q[pos[edges[q].i]++] = (int) q;
+      inc_q[pos[edges[q].j]++] = (int) q;
+    }
+    qmask.assign((edges.size() + 63) / 64, 0ULL);
+  }
+
+  /* visit(q) for each candidate pair of a body in `from`, once, in ascending order of q (the
+     order of a walk over all the candidate pairs). */
+  template <class Visit> void WindowDriver::visit_pairs(const std::vector<int> &from, Visit visit)
+  {
+    size_t lo = qmask.size(), hi = 0;
+    for (int b : from)
+      for (int m = inc_start[b]; m < inc_start[b + 1]; ++m) {
+        const size_t w = (size_t) inc_q[m] >> 6;
+        qmask[w] |= 1ULL << (inc_q[m] & 63);
+        lo = std::min(lo, w);
+        hi = std::max(hi, w + 1);
+      }
+    for (size_t w = lo; w < hi; ++w)
+      while (qmask[w]) {
+        const int bit = __builtin_ctzll(qmask[w]);
+        qmask[w] &= qmask[w] - 1;
+        visit((size_t) (w << 6) + (size_t) bit);
+      }
+  }
+
   /* A candidate pair that was not joined could only have touched if a body of it moved
      further than its bound and the two moved at least the pair's gap together.  For such
      pairs between two local groups the groups are merged and resolved again from the window
-     start, until no such pair is left.  Returns the largest merged group. */
+     start, until no such pair is left.  Returns the largest merged group.
+     Only the pairs that can pass are visited: at first those of the bodies beyond their
+     bounds, then those of the bodies resolved again (the others' excursions, and so their
+     pairs' outcome, did not change). */
   long WindowDriver::repair_local(std::vector<Body> &bodies, const std::vector<Edge> &edges,
                                   const Params &p, double t1, CollisionBackend &backend,
                                   long events_before, long &repairs)
   {
     long largest = 0;
     std::vector<int> failing;
-    for (int pass = 0;; ++pass) {
-      failing.clear();
-      for (size_t q = 0; q < edges.size(); ++q) {
-        if (ljoined[q]) continue;
-        const Edge &e = edges[q];
-        const int gi = group_of[e.i], gj = group_of[e.j];
-        if (gi < 0 || gj < 0) continue;    // a boundary group: checked after its resolution
-        if (!(lexc[e.i] > bound[e.i]) && !(lexc[e.j] > bound[e.j])) continue;
-        const Body &bi = bodies[e.i], &bj = bodies[e.j];
-        const double s2 = bi.radius + bj.radius;
-        if (lexc[e.i] + lexc[e.j] + MARGIN * s2 < window_gap(bi.w0, bj.w0, e.shift, s2)) continue;
-        failing.push_back((int) q);
-      }
+    const int nb = (int) bodies.size();
+    auto check = [&](size_t q) {
+      if (ljoined[q]) return;
+      const Edge &e = edges[q];
+      const int gi = group_of[e.i], gj = group_of[e.j];
+      if (gi < 0 || gj < 0) return;    // a boundary group: checked after its resolution
+      if (!(lexc[e.i] > bound[e.i]) && !(lexc[e.j] > bound[e.j])) return;
+      const Body &bi = bodies[e.i], &bj = bodies[e.j];
+      const double s2 = bi.radius + bj.radius;
+      if (lexc[e.i] + lexc[e.j] + MARGIN * s2 < window_gap(bi.w0, bj.w0, e.shift, s2)) return;
+      failing.push_back((int) q);
+    };
+    // (The first pass walks over every pair where the pairs by body are not made yet: on one
+    // rank, a window without repairs makes none.)
+    std::vector<int> &from = qfrom;
+    from.clear();
+    if (inc_ready) {
+      for (int b = 0; b < nb; ++b)
+        if (lexc[b] > bound[b]) from.push_back(b);
+      visit_pairs(from, check);
+    } else {
+      for (size_t q = 0; q < edges.size(); ++q) check(q);
+    }
+    for (;;) {
       if (failing.empty()) return largest;
       if (redo_merged(bodies, edges, failing, p, t1, backend, events_before, repairs, largest))
         return largest;
+      incidence(nb, edges);
+      from.assign(submembers.begin(), submembers.end());
+      failing.clear();
+      visit_pairs(from, check);
     }
   }
 
@@ -1426,19 +1532,26 @@ namespace Collide {
     else
       ex.to_foreign(lexc, 1, fexc);
     long joined = 0;
-    for (size_t q = 0; q < edges.size(); ++q) {
-      if (ljoined[q]) continue;
+    // (The pairs of the bodies in boundary groups: the others were repaired already.)
+    incidence(nb, edges);
+    std::vector<int> &from = qfrom;
+    from.clear();
+    for (int b = 0; b < nb; ++b)
+      if (group_of[b] < 0) from.push_back(b);
+    visit_pairs(from, [&](size_t q) {
+      if (ljoined[q]) return;
       const Edge &e = edges[q];
-      if (group_of[e.i] >= 0 && group_of[e.j] >= 0) continue;    // repaired already
-      if (!(lexc[e.i] > bound[e.i]) && !(lexc[e.j] > bound[e.j])) continue;
+      if (group_of[e.i] >= 0 && group_of[e.j] >= 0) return;    // repaired already
+      if (!(lexc[e.i] > bound[e.i]) && !(lexc[e.j] > bound[e.j])) return;
       const Body &bi = bodies[e.i], &bj = bodies[e.j];
       const double s2 = bi.radius + bj.radius;
-      if (lexc[e.i] + lexc[e.j] + MARGIN * s2 < window_gap(bi.w0, bj.w0, e.shift, s2)) continue;
-      ljoined[q] = 1;
+      if (lexc[e.i] + lexc[e.j] + MARGIN * s2 < window_gap(bi.w0, bj.w0, e.shift, s2)) return;
+      ljoined[q] = 2;
+      jseq[q] = (int) wedges.size();
       wedges.push_back(e);
       uf.unite(e.i, e.j);
       ++joined;
-    }
+    });
     for (size_t q = 0; q < fedges.size(); ++q) {
       if (fjoined[q]) continue;
       const ForeignEdge &fe = fedges[q];
@@ -1539,6 +1652,7 @@ namespace Collide {
     for (int b = 0; b < nv; ++b) bound[b] = rate[b] * delta;
     wedges.clear();
     ljoined.assign(xedges.size(), 0);
+    jseq.resize(xedges.size());
     for (size_t q = 0; q < xedges.size(); ++q) {
       const Edge &e = xedges[q];
       if (egap[q] <= bound[e.i] + bound[e.j] + emargin[q]) {
@@ -1903,6 +2017,8 @@ namespace Collide {
     sparse_now = planned && s.sparse_foreign;    // (planned: the neighbours are known)
     sparse_drop = s.sparse_drop;
     sf_ready = false;
+    inc_ready = false;
+    step_edges = &edges;
     run_windows(bodies, edges, fedges, foreign, p, s, backend, ex, mine, stats, nb, nv, use_view,
                 target);
     if (planned && planned_bad) {

@@ -333,6 +333,21 @@ namespace Collide {
     bool start_cached = false;
     std::vector<Edge> wedges;    // local window edges
     std::vector<char> fjoined, ljoined;
+    // The candidate pairs of each local body (indices into the step's edges, ascending:
+    // inc_q[inc_start[b] .. inc_start[b + 1])), made once per step where first needed
+    // (inc_ready); the checks for missed pairs visit the pairs of the bodies that can have
+    // one, in ascending order through the bit set qmask (all zero between uses).
+    bool inc_ready = false;
+    std::vector<int> inc_start, inc_q;
+    std::vector<unsigned long long> qmask;
+    void incidence(int nb, const std::vector<Edge> &edges);
+    template <class Visit> void visit_pairs(const std::vector<int> &from, Visit visit);
+    std::vector<int> qfrom;
+    // ljoined: 1 for the window's own edges, 2 for those joined since (repairs, missed pairs),
+    // jseq giving those their place in wedges; bwq, bwstart: resolve_boundary()'s window edges
+    // of the boundary bodies.  step_edges: run()'s candidate pairs.
+    std::vector<int> jseq, bwq, bwstart;
+    const std::vector<Edge> *step_edges = nullptr;
     std::vector<int> fwin;    // indices of foreign edges joined in the window
     UnionFind uf;
     UnionFind gunion;    // the gathered bodies' groups
