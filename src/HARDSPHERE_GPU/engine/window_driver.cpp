@@ -1808,12 +1808,13 @@ namespace Collide {
     times.groups += lap(clock);
     // Local groups, each with its own tally (a repair replaces a group's tally).
     // (Planned windows keep the first window's snapshot, the step start, in step_start: that
-    // one whole.)
-    if (planned && t0 > 0.0 && !step_kept) {
+    // one whole; not where the caller can make the step's bodies again, step_source().)
+    const bool keep_start = planned && !remake_step;
+    if (keep_start && t0 > 0.0 && !step_kept) {
       snap.swap(step_start);
       step_kept = true;
     }
-    take_snapshot(bodies, fedges, p, planned && t0 == 0.0);
+    take_snapshot(bodies, fedges, p, keep_start && t0 == 0.0);
     group_of.assign(nb, -1);
     for (int g = 0; g < nlocal_groups; ++g)
       for (int m = gstart[g]; m < gstart[g + 1]; ++m) group_of[gmembers[m]] = g;
@@ -2022,9 +2023,14 @@ namespace Collide {
     run_windows(bodies, edges, fedges, foreign, p, s, backend, ex, mine, stats, nb, nv, use_view,
                 target);
     if (planned && planned_bad) {
-      // The first window's snapshot (its start points are made again).
-      const std::vector<Body> &start = step_kept ? step_start : snap;
-      bodies.assign(start.begin(), start.end());
+      // The bodies as the caller made them, or the first window's snapshot (its start points
+      // are made again).
+      if (remake_step) {
+        remake_step(bodies);
+      } else {
+        const std::vector<Body> &start = step_kept ? step_start : snap;
+        bodies.assign(start.begin(), start.end());
+      }
       if (tally_virial) std::fill(body_virial, body_virial + 6 * (size_t) nb, 0.0);
       planned = false;
       sparse_now = false;

@@ -280,6 +280,15 @@ namespace Collide {
     /// rank must choose alike whether the ghost update is made.)
     void foreign_start(const std::vector<double> *x0v) { fstart = x0v; }
 
+    /// Where the bodies at the step's start come from should planned windows do the step
+    /// again: `remake` fills run()'s bodies as the caller made them for it, bit for bit (the
+    /// caller's atoms do not change within run()).  Without it (empty) a copy of every body is
+    /// kept at each step's start.
+    void step_source(std::function<void(std::vector<Body> &)> remake)
+    {
+      remake_step = std::move(remake);
+    }
+
    private:
     WindowChooser chooser;
     std::vector<char> near_edge, near_next;    // local body next to another rank's atoms
@@ -412,6 +421,7 @@ namespace Collide {
     bool plan_gave_way = false;    // planned_skip set there: no halved bounds meanwhile (run())
     std::vector<Body> step_start;
     bool step_kept = false;
+    std::function<void(std::vector<Body> &)> remake_step;    // step_source()
     /// How join_missed_boundary() ends a pass: Local, the first of two passes (no reduction;
     /// the boundary groups go back to the window start whatever it found); Reduced, a
     /// reduction over all ranks; Kept, a planned window's last pass (its outcome kept in
