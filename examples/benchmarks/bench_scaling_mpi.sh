@@ -31,7 +31,10 @@
 # (f_ID[24]), ghost updates (f_ID[25]) and bytes brought to all ranks (f_ID[26]), and from the
 # run's log (several ranks; 0 on one): the least and the most time per step a rank spent in the
 # fix's communication (waits for the other ranks included) and the most a rank spent on the
-# groups that span ranks (gathered, resolved, results sent back, missed pairs joined).
+# groups that span ranks (gathered, resolved, results sent back, missed pairs joined), and the
+# atoms of the rank with the most (LAMMPS's Nlocal max) over the mean: a coupled step goes at
+# the pace of its most loaded rank, so this ratio bounds the efficiency from the decomposition
+# alone (a lattice of nx planes over a grid of ranks that does not divide nx).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
@@ -66,7 +69,7 @@ echo
 median() { sort -g | awk '{v[NR] = $1} END {print (NR % 2) ? v[(NR + 1) / 2] : 0.5 * (v[NR / 2] + v[NR / 2 + 1])}'; }
 
 # One run: prints "fixstep loop spanning gathers collectives ghostupdates bytes commleast
-# commmost spanningmost".
+# commmost spanningmost atomsmost atomsmean".
 # A run stopped at HSGPU_RUN_LIMIT prints "stopped" instead.
 one() {
   local np=$1 input=$2 log=$3; shift 3
@@ -93,13 +96,14 @@ one() {
       clo = w[n - 2]; chi = w[n]
     }
     /^Fix hardsphere: a rank.s search and windows/ {n = split($0, w, " "); shi = w[n]}
-    END {printf "%g %g %g %g %g %g %g %g %g %g\n", fix, 1e3 * loop / steps, span, gath, coll,
-                ghost, bytes, clo + 0, chi + 0, shi + 0}' \
+    /^Nlocal:/ {nave = $2; nmax = $4}
+    END {printf "%g %g %g %g %g %g %g %g %g %g %g %g\n", fix, 1e3 * loop / steps, span, gath, coll,
+                ghost, bytes, clo + 0, chi + 0, shi + 0, nmax + 0, nave + 0}' \
     "$work/$log"
 }
 
-hdr="| configuration | N | ranks | fix step ms | fix step ms, least-most run | Loop ms/step | efficiency (fix) | spanning atoms/step | gathers/step | collectives | ghost updates | bytes | communication ms/step (least-most rank) | spanning groups ms/step (most) |"
-rul="|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+hdr="| configuration | N | ranks | fix step ms | fix step ms, least-most run | Loop ms/step | efficiency (fix) | spanning atoms/step | gathers/step | collectives | ghost updates | bytes | communication ms/step (least-most rank) | spanning groups ms/step (most) | atoms per rank, most (/ mean) |"
+rul="|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
 
 size_args() {    # case np -> prints "N args..."
   local c=$1 np=$2 total=$((per * $2))
@@ -155,11 +159,11 @@ table() {    # weak|strong cases...  Each case's rows are printed once its runs 
         [ -z "$base" ] || eff=$(efficiency "$least" "$n" "$np")
         awk -v lab="${c#big_}" -v n="$n" -v np="$np" -v lim="$HSGPU_RUN_LIMIT" -v fix="$least" \
           -v eff="$eff" -v k="$stopped" 'BEGIN {
-            printf "| %s | %d | %d | > %.4g | %d of %d runs stopped after %s s | - | %s | - | - | - | - | - | - | - |\n",
+            printf "| %s | %d | %d | > %.4g | %d of %d runs stopped after %s s | - | %s | - | - | - | - | - | - | - | - |\n",
               lab, n, np, fix, k, k, lim, (eff == "-") ? "-" : sprintf("< %.0f%%", 100 * eff) }'
         continue
       fi
-      for k in 1 2 3 4 5 6 7 8 9 10; do m+=("$(grep -v '^stopped' "$work/rows.$c.$np" | awk -v k=$k '{print $k}' | median)"); done
+      for k in 1 2 3 4 5 6 7 8 9 10 11 12; do m+=("$(grep -v '^stopped' "$work/rows.$c.$np" | awk -v k=$k '{print $k}' | median)"); done
       [ -n "$base" ] || { base=${m[0]}; bn=$n; bp=$np; }
       local spread
       spread=$(grep -v '^stopped' "$work/rows.$c.$np" | awk '{print $1}' | sort -g | awk '{v[NR] = $1} END {printf (NR > 1) ? "%.4g-%.4g" : "-", v[1], v[NR]}')
@@ -167,9 +171,10 @@ table() {    # weak|strong cases...  Each case's rows are printed once its runs 
       awk -v lab="${c#big_}" -v n="$n" -v np="$np" -v eff="$(efficiency "${m[0]}" "$n" "$np")" \
         -v fix="${m[0]}" -v loop="${m[1]}" -v span="${m[2]}" -v gath="${m[3]}" -v coll="${m[4]}" \
         -v ghost="${m[5]}" -v bytes="${m[6]}" -v clo="${m[7]}" -v chi="${m[8]}" -v shi="${m[9]}" \
-        -v spread="$spread" 'BEGIN {
-          printf "| %s | %d | %d | %.2f | %s | %.2f | %.0f%% | %.0f | %.2f | %.0f | %.0f | %.3g | %.3g-%.3g | %.3g |\n",
-            lab, n, np, fix, spread, loop, 100 * eff, span, gath, coll, ghost, bytes, clo, chi, shi }'
+        -v nmax="${m[10]}" -v nave="${m[11]}" -v spread="$spread" 'BEGIN {
+          printf "| %s | %d | %d | %.2f | %s | %.2f | %.0f%% | %.0f | %.2f | %.0f | %.0f | %.3g | %.3g-%.3g | %.3g | %.0f (%.3f) |\n",
+            lab, n, np, fix, spread, loop, 100 * eff, span, gath, coll, ghost, bytes, clo, chi, shi,
+            nmax, (nave > 0) ? nmax / nave : 0 }'
     done
   done
   echo
