@@ -693,9 +693,8 @@ namespace Collide {
   {
     const int nbody = body_values(spin);
     const std::vector<std::pair<long, size_t>> &order = gorder;
-    // The bodies themselves only once the gather is complete (unpack_bodies()): the rounds
-    // passing entries on need the IDs, partners and owners alone.
-    gbodies.clear();
+    // The bodies themselves only once the gather is complete, and only those resolved here
+    // (unpack_bodies()): the rounds passing entries on need the IDs, partners and owners alone.
     gedges.clear();
     const int ng = (int) order.size();
     gentry.resize(ng);
@@ -793,13 +792,19 @@ namespace Collide {
       if (k >= old_ng || gmissing[k]) link_partners(k, old_ng, true);
   }
 
-  /* The gathered bodies (gbodies) from their entries, in the order of the last
-     unpack_gathered(). */
-  void WindowDriver::unpack_bodies()
+  /* The gathered bodies (gbodies, indexed as the last unpack_gathered()'s entries) of the ngr
+     groups of gstart2/gmembers2 from their entries: those resolved here.  The others' places
+     hold what they held (no backend reads a body outside the groups it resolves). */
+  void WindowDriver::unpack_bodies(int ngr)
   {
-    const int ng = (int) gentry.size();
-    gbodies.resize(ng);
-    for (int k = 0; k < ng; ++k) unpack_body(&recv[gentry[k]], gbodies[k], spin);
+    const size_t ng = gentry.size();
+    if (gbodies.size() < ng) gbodies.resize(ng);
+    for (int m = 0; m < gstart2[ngr]; ++m) {
+      Body &b = gbodies[gmembers2[m]];
+      unpack_body(&recv[gentry[gmembers2[m]]], b, spin);
+      if (!spin)
+        for (int d = 0; d < 3; ++d) b.omega[d] = 0.0;    // (smooth spheres: as made)
+    }
   }
 
   /* The boundary groups of the window (bodies in groups that hold a foreign node, or, over
@@ -1095,7 +1100,6 @@ namespace Collide {
         ScopeTime st(times.gather_messages);
         ex.allgather(send, recv, mine_off);
       }
-      gbodies.clear();
       gedges.clear();
       if (recv.empty()) {
         times.span_gather += lap(clock);
@@ -1105,12 +1109,8 @@ namespace Collide {
       unpack_gathered(mine_off, false);
       group_gathered(ngr);
     }
-    {
-      ScopeTime st(times.gather_unpack);
-      unpack_bodies();
-    }
     times.span_gather += lap(clock);
-    const int ng = (int) gbodies.size();
+    const int ng = (int) gentry.size();
     // Only the groups with a body of this rank are resolved here (the others' results would
     // be thrown away): the work per rank follows its own boundary.  Each group's tally and
     // figures are counted by the rank of its lowest-ID body (its first member: gbodies are in
@@ -1170,6 +1170,10 @@ namespace Collide {
       gstart2[nmine] = at;
       ngr = nmine;
     }
+    {
+      ScopeTime st(times.gather_unpack);
+      unpack_bodies(ngr);
+    }
     gtally2.assign(ngr, Tally());
     WindowWork w{gbodies.data(),
                  ng,
@@ -1189,8 +1193,10 @@ namespace Collide {
       tb.capped |= gtally2[g].capped;
       if (gmine[gmembers2[gstart2[g]]] >= 0) tb.add(gtally2[g]);
     }
-    for (int k = 0; k < ng; ++k)
-      if (gmine[k] >= 0) {
+    // (The bodies here of the groups resolved here; the others' results come from their
+    // resolvers.)
+    for (int m = 0; m < gstart2[ngr]; ++m)
+      if (const int k = gmembers2[m]; gmine[k] >= 0) {
         const int owner = bodies[gmine[k]].owner;
         bodies[gmine[k]] = gbodies[k];
         bodies[gmine[k]].owner = owner;

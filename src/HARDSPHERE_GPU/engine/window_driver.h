@@ -494,7 +494,7 @@ namespace Collide {
     void index_gathered(long mine_off, bool sparse);
     void index_id(long id, int k);
     void link_partners(int k, int old, bool sparse);
-    void unpack_bodies();
+    void unpack_bodies(int ngr);
     int gathered_index(long id) const;
     int gathered_owner(int k) const;
     void fill_destinations(const std::function<void(std::vector<double> &, int)> &pack);
