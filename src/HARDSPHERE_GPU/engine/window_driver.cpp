@@ -1109,7 +1109,6 @@ namespace Collide {
       unpack_gathered(mine_off, false);
       group_gathered(ngr);
     }
-    times.span_gather += lap(clock);
     const int ng = (int) gentry.size();
     // Only the groups with a body of this rank are resolved here (the others' results would
     // be thrown away): the work per rank follows its own boundary.  Each group's tally and
@@ -1174,6 +1173,7 @@ namespace Collide {
       ScopeTime st(times.gather_unpack);
       unpack_bodies(ngr);
     }
+    times.span_gather += lap(clock);    // (the choice of the groups resolved here with it)
     gtally2.assign(ngr, Tally());
     WindowWork w{gbodies.data(),
                  ng,
