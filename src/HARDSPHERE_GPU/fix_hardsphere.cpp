@@ -636,6 +636,13 @@ void FixHardSphere::init()
   // HSGPU_SPARSE_DROP=1: rank 0 leaves an atom out of its first such message of each step, and
   // the step is done again (a test aid for that way back).
   wsettings.sparse_drop = env_switch(lmp, "HSGPU_SPARSE_DROP", wsettings.sparse_drop);
+  // Should planned windows do a step again, its bodies are made again from the atoms (which
+  // change only after the step; post_integrate() made them at x - v dt), rather than kept in a
+  // copy at every step's start.
+  driver.step_source([this](std::vector<HSGPU::Collide::Body> &out) {
+    gather_bodies(update->dt);
+    if (&out != &bodies) out = bodies;
+  });
   // Tuning aid: HSGPU_EDGE_FACTOR and HSGPU_EDGE_HOPS set the window bounds of the atoms next to
   // another rank's (WindowSettings::edge_factor, edge_hops; no result bit depends on them).
   if (const char *e = std::getenv("HSGPU_EDGE_FACTOR"))

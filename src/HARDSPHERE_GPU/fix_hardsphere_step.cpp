@@ -1222,12 +1222,6 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
   // neighbouring ranks, made again after each new neighbor list (the ghosts' owners).
   if (comm->nprocs > 2 && spanning_gather && neighbour_exchange)
     exchange->find_neighbours(fnodes, (long) neighbor->ncalls);
-  // Should planned windows do the step again, its bodies are made again from the atoms (which
-  // change only after the step), rather than kept in a copy at every step's start.
-  driver.step_source([this, dt](std::vector<Body> &out) {
-    gather_bodies(dt);
-    if (&out != &bodies) out = bodies;
-  });
   while (true) {
     const double t0 = MPI_Wtime();
     if (vflag_atom) bvir.assign(6 * bodies.size(), 0.0);

@@ -487,16 +487,14 @@ namespace Collide {
     // unions are of the window's edges): the others, most of the ghosts, are alone and weigh
     // nothing here.)
     fill.assign(nb + nf, 0);
-    isb.assign(nb + nf, 0);    // roots of the groups with a foreign node (as window_groups())
+    boundary_roots(nb, nf, fedges);    // (as window_groups())
     for (int b = 0; b < nb; ++b) ++fill[uf.find(b)];
     fseen.assign(nf, 0);
     for (int q : fwin) {
       const int f = fedges[q].node;
       if (fseen[f]) continue;
       fseen[f] = 1;
-      const int r = uf.find(nb + f);
-      ++fill[r];
-      isb[r] = 1;
+      ++fill[uf.find(nb + f)];
     }
     double l[2] = {0.0, 0.0};
     for (int b = 0; b < nb; ++b) {
@@ -812,8 +810,9 @@ namespace Collide {
      gathers the entries of the groups' bodies (to the neighbouring ranks where every rank
      then holds each of its groups whole; else from every rank), and resolves the groups that
      hold a body of its own, keeping its own bodies' results.  Each group's tally and figures
-     are counted by the rank of its lowest-ID body. */
-  void WindowDriver::resolve_boundary(std::vector<Body> &bodies,
+     are counted by the rank of its lowest-ID body.  cand: the step's candidate pairs (the
+     window's edges are among them, except over the view). */
+  void WindowDriver::resolve_boundary(std::vector<Body> &bodies, const std::vector<Edge> &cand,
                                       const std::vector<ForeignEdge> &fedges,
                                       const std::vector<ForeignNode> &foreign, const Params &p,
                                       double t1, CollisionBackend &backend, Exchange &ex, Tally &tb,
@@ -839,7 +838,6 @@ namespace Collide {
     // (bwq[bwstart[c] .. bwstart[c + 1]) for the c-th of them), in the order of wedges (the
     // window's own in ascending order, then those joined since, as they were joined).
     // (Over the view, a walk over wedges.)
-    const std::vector<Edge> &cand = *step_edges;
     bwq.clear();
     bwstart.assign(1, 0);
     if (!gather_view) {
@@ -1324,6 +1322,27 @@ namespace Collide {
     }
   }
 
+  /* Whether candidate pair e, not joined in the window, could have touched in it: a body of
+     it moved further than its bound (lexc against bound), and the two together at least the
+     pair's gap at the window start. */
+  bool WindowDriver::could_touch(const std::vector<Body> &bodies, const Edge &e) const
+  {
+    if (!(lexc[e.i] > bound[e.i]) && !(lexc[e.j] > bound[e.j])) return false;
+    const Body &bi = bodies[e.i], &bj = bodies[e.j];
+    const double s2 = bi.radius + bj.radius;
+    return !(lexc[e.i] + lexc[e.j] + MARGIN * s2 < window_gap(bi.w0, bj.w0, e.shift, s2));
+  }
+
+  /* Candidate pair q (e) joined to the window after its start (a repair, a missed pair):
+     into wedges, with its place there (jseq), and into the window's groups. */
+  void WindowDriver::join_pair(int q, const Edge &e)
+  {
+    ljoined[q] = 2;
+    jseq[q] = (int) wedges.size();
+    wedges.push_back(e);
+    uf.unite(e.i, e.j);
+  }
+
   /* Merges the groups that the candidate pairs `failing` (indices into cand) join, and
      resolves the merged sets again from the window start.  A set counts as a repair here only
      where its lowest-ID body is local (a set that spans ranks is resolved again on each rank
@@ -1337,10 +1356,7 @@ namespace Collide {
     std::vector<char> redo(ng, 0);
     // Merge, and take the merged groups back to the window start.
     for (int q : failing) {
-      ljoined[q] = 2;
-      jseq[q] = (int) wedges.size();
-      wedges.push_back(cand[q]);
-      uf.unite(cand[q].i, cand[q].j);
+      join_pair(q, cand[q]);
       merged.unite(merged.find(group_of[cand[q].i]), merged.find(group_of[cand[q].j]));
     }
     for (int q : failing) redo[merged.find(group_of[cand[q].i])] = 1;
@@ -1490,11 +1506,7 @@ namespace Collide {
       const Edge &e = edges[q];
       const int gi = group_of[e.i], gj = group_of[e.j];
       if (gi < 0 || gj < 0) return;    // a boundary group: checked after its resolution
-      if (!(lexc[e.i] > bound[e.i]) && !(lexc[e.j] > bound[e.j])) return;
-      const Body &bi = bodies[e.i], &bj = bodies[e.j];
-      const double s2 = bi.radius + bj.radius;
-      if (lexc[e.i] + lexc[e.j] + MARGIN * s2 < window_gap(bi.w0, bj.w0, e.shift, s2)) return;
-      failing.push_back((int) q);
+      if (could_touch(bodies, e)) failing.push_back((int) q);
     };
     // (The first pass walks over every pair where the pairs by body are not made yet: on one
     // rank, a window without repairs makes none.)
@@ -1548,14 +1560,8 @@ namespace Collide {
       if (ljoined[q]) return;
       const Edge &e = edges[q];
       if (group_of[e.i] >= 0 && group_of[e.j] >= 0) return;    // repaired already
-      if (!(lexc[e.i] > bound[e.i]) && !(lexc[e.j] > bound[e.j])) return;
-      const Body &bi = bodies[e.i], &bj = bodies[e.j];
-      const double s2 = bi.radius + bj.radius;
-      if (lexc[e.i] + lexc[e.j] + MARGIN * s2 < window_gap(bi.w0, bj.w0, e.shift, s2)) return;
-      ljoined[q] = 2;
-      jseq[q] = (int) wedges.size();
-      wedges.push_back(e);
-      uf.unite(e.i, e.j);
+      if (!could_touch(bodies, e)) return;
+      join_pair(q, e);
       ++joined;
     });
     for (size_t q = 0; q < fedges.size(); ++q) {
@@ -1771,10 +1777,7 @@ namespace Collide {
         // Pairs of groups resolved here, from the view or gathered (a gathered group's
         // pairs are checked by the owners of its bodies).
         if (!gact[gi] && !gact[gj] && !(e.i < nb && ggat[gi]) && !(e.j < nb && ggat[gj])) continue;
-        if (!(lexc[e.i] > bound[e.i]) && !(lexc[e.j] > bound[e.j])) continue;
-        const Body &bi = bodies[e.i], &bj = bodies[e.j];
-        const double s2 = bi.radius + bj.radius;
-        if (lexc[e.i] + lexc[e.j] + MARGIN * s2 < window_gap(bi.w0, bj.w0, e.shift, s2)) continue;
+        if (!could_touch(bodies, e)) continue;
         failing.push_back((int) q);
         // A merge that some rank holding a body of it could not resolve from its view.
         if (!gsafe[gi] || !gsafe[gj]) need = 1;
@@ -1864,7 +1867,7 @@ namespace Collide {
     for (int pass = 0; ex.nranks() > 1; ++pass) {
       tbnd = tbnd_start;
       bl = bg = nbound = 0;
-      resolve_boundary(bodies, fedges, foreign, p, t1, backend, ex, tbnd, bl, bg, nbound);
+      resolve_boundary(bodies, edges, fedges, foreign, p, t1, backend, ex, tbnd, bl, bg, nbound);
       auto join_clock = std::chrono::steady_clock::now();
       excursions(bodies, t1, &bsent);    // the others are as the local pass left them
       capped_all = capped_here();
@@ -2025,7 +2028,6 @@ namespace Collide {
     sparse_drop = s.sparse_drop;
     sf_ready = false;
     inc_ready = false;
-    step_edges = &edges;
     run_windows(bodies, edges, fedges, foreign, p, s, backend, ex, mine, stats, nb, nv, use_view,
                 target);
     if (planned && planned_bad) {
@@ -2217,7 +2219,8 @@ namespace Collide {
           if (c[1] > 0) gather_broken = true;
           if (c[0] > 0) {
             gather_view = true;
-            resolve_boundary(bodies, fedges, foreign, p, t1, backend, ex, tgw, bl, bg, nbound);
+            resolve_boundary(bodies, edges, fedges, foreign, p, t1, backend, ex, tgw, bl, bg,
+                             nbound);
             gather_view = false;
             ++stats_gathers;
           }

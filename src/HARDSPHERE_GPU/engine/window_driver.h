@@ -352,11 +352,12 @@ namespace Collide {
     void incidence(int nb, const std::vector<Edge> &edges);
     template <class Visit> void visit_pairs(const std::vector<int> &from, Visit visit);
     std::vector<int> qfrom;
-    // ljoined: 1 for the window's own edges, 2 for those joined since (repairs, missed pairs),
-    // jseq giving those their place in wedges; bwq, bwstart: resolve_boundary()'s window edges
-    // of the boundary bodies.  step_edges: run()'s candidate pairs.
+    // ljoined: 1 for the window's own edges, 2 for those joined since (repairs, missed pairs:
+    // join_pair()), jseq giving those their place in wedges; bwq, bwstart:
+    // resolve_boundary()'s window edges of the boundary bodies.
     std::vector<int> jseq, bwq, bwstart;
-    const std::vector<Edge> *step_edges = nullptr;
+    void join_pair(int q, const Edge &e);
+    bool could_touch(const std::vector<Body> &bodies, const Edge &e) const;
     std::vector<int> fwin;    // indices of foreign edges joined in the window
     UnionFind uf;
     UnionFind gunion;    // the gathered bodies' groups
@@ -499,7 +500,8 @@ namespace Collide {
     int gathered_owner(int k) const;
     void fill_destinations(const std::function<void(std::vector<double> &, int)> &pack);
     long results_to_owners(std::vector<Body> &bodies, int ngr, Exchange &ex);
-    void resolve_boundary(std::vector<Body> &bodies, const std::vector<ForeignEdge> &fedges,
+    void resolve_boundary(std::vector<Body> &bodies, const std::vector<Edge> &cand,
+                          const std::vector<ForeignEdge> &fedges,
                           const std::vector<ForeignNode> &foreign, const Params &p, double t1,
                           CollisionBackend &backend, Exchange &ex, Tally &tb, long &largest,
                           long &ngroups, long &nbound);
