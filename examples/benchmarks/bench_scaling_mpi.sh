@@ -22,6 +22,7 @@
 #   HSGPU_RUN_LIMIT=s stops a run after s seconds (a pile on many ranks may take hours): its
 #   row then gives the least the fix's step can have taken ("> t", the limit over the steps,
 #   setup included) and the most its efficiency can be ("< e"), and counts the runs stopped.
+#   HSGPU_BOUND=0 leaves out the host's bound (below; lattice3d and the fluid, on by default).
 #
 # Columns: the fix's own time per step after the run's first (its run summary; median, and the
 # least and most of the runs), LAMMPS's Loop
@@ -35,6 +36,13 @@
 # atoms of the rank with the most (LAMMPS's Nlocal max) over the mean: a coupled step goes at
 # the pace of its most loaded rank, so this ratio bounds the efficiency from the decomposition
 # alone (a lattice of nx planes over a grid of ranks that does not divide nx).
+# The host's bound (lattice3d and the fluid, P > 1): right after each P-rank run, P single-rank
+# runs at once of one rank's share (weak: `per` atoms; strong: N / P, the fluid the nearest
+# cube), each pinned to its own core (taskset -c 0 ... P-1) and sharing nothing; their median
+# and slowest fix step, and the efficiencies a run whose ranks went at those paces would have
+# (the single run's time scaled to the rank's atoms, in the efficiency above).  The ranks of a
+# coupled run wait for each other every step, so it goes at the pace of its slowest core: the
+# slowest single run bounds its efficiency on that host, whatever the code.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
@@ -102,8 +110,34 @@ one() {
     "$work/$log"
 }
 
-hdr="| configuration | N | ranks | fix step ms | fix step ms, least-most run | Loop ms/step | efficiency (fix) | spanning atoms/step | gathers/step | collectives | ghost updates | bytes | communication ms/step (least-most rank) | spanning groups ms/step (most) | atoms per rank, most (/ mean) |"
-rul="|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+hdr="| configuration | N | ranks | fix step ms | fix step ms, least-most run | Loop ms/step | efficiency (fix) | spanning atoms/step | gathers/step | collectives | ghost updates | bytes | communication ms/step (least-most rank) | spanning groups ms/step (most) | atoms per rank, most (/ mean) | single runs at once: atoms, fix step ms median (slowest) | host's bound: median, slowest |"
+rul="|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+
+# P single-rank runs at once (the host's bound): case np args... -> prints "atoms median slowest"
+# (ms per step of the fix after the first), or nothing where a run failed.
+alone() {
+  local c=$1 np=$2 n input a i k
+  case $c in
+    lattice3d|fluid) read -r -a a <<< "$(size_args "$c" 1)" ;;
+    big_lattice3d) a=($((big / np)) -var N $((big / np)) -var steps "$strong_steps") ;;
+    big_fluid) local nx
+      nx=$(awk -v t="$big" -v p="$np" 'BEGIN {printf "%d", (t / p) ^ (1 / 3) + 0.5}')
+      a=($((nx * nx * nx)) -var nx "$nx" -var steps "$strong_steps") ;;
+    *) return ;;
+  esac
+  n=${a[0]}
+  input=in.${c#big_}
+  for ((i = 0; i < np; ++i)); do
+    (cd "$work" && taskset -c "$i" "$lmp" -in "$input" -var plugin "$plugin" "${a[@]:1}"       -log "alone.$i" -echo none -screen none > "alone.$i.out" 2>&1) &
+  done
+  wait
+  for ((i = 0; i < np; ++i)); do
+    k=$(sed -n 's/^Fix hardsphere (.*(\([0-9.e+-]*\) ms after the first).*/\1/p' "$work/alone.$i")
+    [ -n "$k" ] || { echo "single run $i of $np failed: $input ${a[*]:1}" >&2; return; }
+    echo "$k"
+  done | sort -g | awk -v n="$n" '{v[NR] = $1} END {
+    printf "%d %g %g\n", n, (NR % 2) ? v[(NR + 1) / 2] : 0.5 * (v[NR / 2] + v[NR / 2 + 1]), v[NR]}'
+}
 
 size_args() {    # case np -> prints "N args..."
   local c=$1 np=$2 total=$((per * $2))
@@ -143,6 +177,7 @@ table() {    # weak|strong cases...  Each case's rows are printed once its runs 
       for np in "${ranks[@]}"; do
         read -r -a a <<< "$(size_args "$c" "$np")"
         one "$np" "in.${c#big_}" "log.$c.$np" "${a[@]:1}" >> "$work/rows.$c.$np"
+        [ "${HSGPU_BOUND:-1}" = 0 ] || [ "$np" -le 1 ] || alone "$c" "$np" >> "$work/alone.$c.$np"
         # (each run as it ends, on standard error: a row whose later runs do not end is kept)
         echo "# ${c#big_}, $np ranks, run $((rep + 1)) of $reps: fix step $(tail -n 1 "$work/rows.$c.$np" | awk '{print ($1 == "stopped") ? "- (stopped after '"${HSGPU_RUN_LIMIT:-}"' s)" : $1 " ms"}')" >&2
       done
@@ -159,7 +194,7 @@ table() {    # weak|strong cases...  Each case's rows are printed once its runs 
         [ -z "$base" ] || eff=$(efficiency "$least" "$n" "$np")
         awk -v lab="${c#big_}" -v n="$n" -v np="$np" -v lim="$HSGPU_RUN_LIMIT" -v fix="$least" \
           -v eff="$eff" -v k="$stopped" 'BEGIN {
-            printf "| %s | %d | %d | > %.4g | %d of %d runs stopped after %s s | - | %s | - | - | - | - | - | - | - | - |\n",
+            printf "| %s | %d | %d | > %.4g | %d of %d runs stopped after %s s | - | %s | - | - | - | - | - | - | - | - | - | - |\n",
               lab, n, np, fix, k, k, lim, (eff == "-") ? "-" : sprintf("< %.0f%%", 100 * eff) }'
         continue
       fi
@@ -168,13 +203,27 @@ table() {    # weak|strong cases...  Each case's rows are printed once its runs 
       local spread
       spread=$(grep -v '^stopped' "$work/rows.$c.$np" | awk '{print $1}' | sort -g | awk '{v[NR] = $1} END {printf (NR > 1) ? "%.4g-%.4g" : "-", v[1], v[NR]}')
       [ "$stopped" -eq 0 ] || spread="$spread ($stopped stopped)"
+      # The host's bound: the medians over the repetitions of the single runs' median and
+      # slowest, each scaled to this row's atoms per rank.
+      local single="-" bound="-"
+      if [ -s "$work/alone.$c.$np" ]; then
+        local sn smed sslow
+        sn=$(awk '{print $1}' "$work/alone.$c.$np" | median)
+        smed=$(awk '{print $2}' "$work/alone.$c.$np" | median)
+        sslow=$(awk '{print $3}' "$work/alone.$c.$np" | median)
+        single=$(awk -v n="$sn" -v a="$smed" -v b="$sslow" 'BEGIN {printf "%d, %.4g (%.4g)", n, a, b}')
+        bound=$(awk -v a="$(efficiency "$(awk -v t="$smed" -v sn="$sn" -v n="$n" -v np="$np" 'BEGIN {print t * n / np / sn}')" "$n" "$np")" \
+          -v b="$(efficiency "$(awk -v t="$sslow" -v sn="$sn" -v n="$n" -v np="$np" 'BEGIN {print t * n / np / sn}')" "$n" "$np")" \
+          'BEGIN {printf "%.0f%%, %.0f%%", 100 * a, 100 * b}')
+      fi
       awk -v lab="${c#big_}" -v n="$n" -v np="$np" -v eff="$(efficiency "${m[0]}" "$n" "$np")" \
         -v fix="${m[0]}" -v loop="${m[1]}" -v span="${m[2]}" -v gath="${m[3]}" -v coll="${m[4]}" \
         -v ghost="${m[5]}" -v bytes="${m[6]}" -v clo="${m[7]}" -v chi="${m[8]}" -v shi="${m[9]}" \
-        -v nmax="${m[10]}" -v nave="${m[11]}" -v spread="$spread" 'BEGIN {
-          printf "| %s | %d | %d | %.2f | %s | %.2f | %.0f%% | %.0f | %.2f | %.0f | %.0f | %.3g | %.3g-%.3g | %.3g | %.0f (%.3f) |\n",
+        -v nmax="${m[10]}" -v nave="${m[11]}" -v spread="$spread" -v single="$single" \
+        -v bound="$bound" 'BEGIN {
+          printf "| %s | %d | %d | %.2f | %s | %.2f | %.0f%% | %.0f | %.2f | %.0f | %.0f | %.3g | %.3g-%.3g | %.3g | %.0f (%.3f) | %s | %s |\n",
             lab, n, np, fix, spread, loop, 100 * eff, span, gath, coll, ghost, bytes, clo, chi, shi,
-            nmax, (nave > 0) ? nmax / nave : 0 }'
+            nmax, (nave > 0) ? nmax / nave : 0, single, bound }'
     done
   done
   echo
