@@ -166,6 +166,7 @@ class FixHardSphere : public Fix {
     double boundary = 0.0, gathers = 0.0, repairs = 0.0, redos = 0.0;
     double spanning = 0.0, fallbacks = 0.0, gathered = 0.0, neighbour = 0.0;
     double t_search = 0.0, t_resolve = 0.0, t_step = 0.0;
+    double t_search_steps = 0.0;    // of t_search, the steps' own (not the setup's)
     double t_first = 0.0;       // seconds of the run's first step (allocations, page-locking)
     bigint resident = 0;        // steps carried out on the device
     double t_transfer = 0.0;    // seconds copying bodies to the device and back

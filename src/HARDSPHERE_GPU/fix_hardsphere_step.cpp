@@ -1454,6 +1454,7 @@ int FixHardSphere::resident_outcome(const HSGPU::Collide::ResidentReport &report
 void FixHardSphere::post_integrate()
 {
   const double t_start = MPI_Wtime();
+  const double search_start = t_search;
   const double dt = update->dt;
   comm_step = CommCount();
   // Per-atom virial on the steps LAMMPS asks for it (Integrate::ev_set sets vflag_atom to the
@@ -1539,6 +1540,7 @@ void FixHardSphere::post_integrate()
   const double spent = MPI_Wtime() - t_start;
   t_step += spent;
   run_sum.t_step += spent;
+  run_sum.t_search_steps += t_search - search_start;
   if (run_sum.steps == 1) run_sum.t_first = spent;
 }
 
@@ -1588,6 +1590,39 @@ void FixHardSphere::post_run()
   // queue, its atoms gathered from the ranks every window (touching spheres, such as a settled
   // pile, are one group however short the window), so more ranks cannot make the run faster.
   const double natoms_fix = (comm->nprocs > 1) ? (double) group->count(igroup) : 0.0;
+  // Tuning aid: HSGPU_RANK_PARTS=1, each rank's time on a line of its own, ms per step over
+  // the run: the fix's step, its communication (waits for the other ranks included) and the
+  // rest, its own work; and the parts above (the groups spanning ranks with their waits; of
+  // them the rank's packing, unpacking and resolving), the rest of the step ("other": the step
+  // budget, the overlap check, the results written back, the reductions), atoms and ghosts.
+  // The rank with the least communication is the one the others wait for.
+  if (comm->nprocs > 1 && std::getenv("HSGPU_RANK_PARTS")) {
+    constexpr int NR = 10;
+    const double own[NR] = {r.t_step,
+                            r.t_comm,
+                            r.t_search_steps,
+                            dtm.edges,
+                            dtm.groups,
+                            dtm.local,
+                            dtm.spanning,
+                            dtm.span_pack + dtm.gather_unpack + dtm.span_resolve,
+                            (double) atom->nlocal,
+                            (double) atom->nghost};
+    std::vector<double> every(comm->me == 0 ? (size_t) NR * comm->nprocs : 0);
+    MPI_Gather(own, NR, MPI_DOUBLE, every.data(), NR, MPI_DOUBLE, 0, world);
+    if (comm->me == 0)
+      for (int q = 0; q < comm->nprocs; ++q) {
+        const double *e = &every[(size_t) NR * q];
+        auto ms = [&](int k) { return 1e3 * e[k] / n; };
+        utils::logmesg(lmp,
+                       "Fix hardsphere: rank {}, ms per step: step {:.4g}, communication {:.4g}, "
+                       "own work {:.4g}; search {:.4g}, window lengths {:.4g}, groups {:.4g}, "
+                       "local {:.4g}, spanning {:.4g} (packing, unpacking and resolving {:.4g}), "
+                       "other {:.4g}; {:.0f} atoms, {:.0f} ghosts\n",
+                       q, ms(0), ms(1), ms(0) - ms(1), ms(2), ms(3), ms(4), ms(5), ms(6), ms(7),
+                       ms(0) - ms(2) - ms(3) - ms(4) - ms(5) - ms(6), e[8], e[9]);
+      }
+  }
   if (comm->me != 0) return;
   auto part = [&](int k) {
     return fmt::format("{:.3g} to {:.3g}", least(GPART + k), most(GPART + k));

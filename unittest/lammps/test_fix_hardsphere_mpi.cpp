@@ -1194,6 +1194,56 @@ TEST(FixHardSphereMPI, APileOverTheRanksIsNamedInAWarning)
   MPI_Barrier(MPI_COMM_WORLD);
 }
 
+// HSGPU_RANK_PARTS=1: a line per rank in the run's log, from rank 0, with that rank's step,
+// communication and own work and the parts of the step, the parts within the step and the own
+// work what is left of the step after the communication.
+TEST(FixHardSphereMPI, EachRanksPartsOnALineOfItsOwn)
+{
+  int me = 0, np = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &me);
+  MPI_Comm_size(MPI_COMM_WORLD, &np);
+  if (np < 2) GTEST_SKIP() << "a line per rank is for several ranks";
+  const std::string log = "hs_rank_parts_" + std::to_string(np) + ".log";
+  {
+    ScopedEnv parts("HSGPU_RANK_PARTS", "1");
+    run_dense(MPI_COMM_WORLD, "fluid", "parallel", 10, "2.5", "gather", log, 12);
+  }
+  if (me == 0) {
+    const std::string text = hsgpu_test::file_text(log);
+    std::vector<int> seen(np, 0);
+    const std::string head = "Fix hardsphere: rank ";
+    for (size_t at = text.find(head); at != std::string::npos; at = text.find(head, at + 1)) {
+      const std::string line = text.substr(at, text.find('\n', at) - at);
+      int q = -1;
+      double step = -1, comm = -1, own = -1, search = -1, window = -1, groups = -1, local = -1,
+             span = -1, spanown = -1, other = -1, atoms = -1, ghosts = -1;
+      const int got = std::sscanf(
+          line.c_str(),
+          "Fix hardsphere: rank %d, ms per step: step %lf, communication %lf, own work %lf; "
+          "search %lf, window lengths %lf, groups %lf, local %lf, spanning %lf (packing, "
+          "unpacking and resolving %lf), other %lf; %lf atoms, %lf ghosts",
+          &q, &step, &comm, &own, &search, &window, &groups, &local, &span, &spanown, &other,
+          &atoms, &ghosts);
+      ASSERT_EQ(got, 13) << line;
+      ASSERT_GE(q, 0) << line;
+      ASSERT_LT(q, np) << line;
+      ++seen[q];
+      EXPECT_GT(step, 0.0) << line;
+      EXPECT_GT(comm, 0.0) << line;    // every rank takes part in the step's reductions
+      EXPECT_NEAR(own, step - comm, 1e-3 * step + 1e-3) << line;
+      for (double part : {search, window, groups, local, span, spanown}) EXPECT_GE(part, 0.0) << line;
+      EXPECT_GT(search, 0.0) << line;
+      EXPECT_LE(spanown, span + 1e-3) << line;
+      EXPECT_GE(other, -1e-3 * step) << line;    // the parts lie within the step
+      EXPECT_GT(atoms, 0.0) << line;
+      EXPECT_GT(ghosts, 0.0) << line;
+    }
+    for (int q = 0; q < np; ++q) EXPECT_EQ(seen[q], 1) << "rank " << q << "'s line in " << log;
+    std::remove(log.c_str());
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+}
+
 // Where planned windows give way (halving them does not shrink the largest group, weighed whole
 // where it spans ranks: the stack's touching spheres are one group however short the window),
 // the bounds at the ranks' edges are not halved either until planning is tried again, and with
