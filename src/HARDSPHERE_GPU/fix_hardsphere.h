@@ -167,6 +167,12 @@ class FixHardSphere : public Fix {
     double spanning = 0.0, fallbacks = 0.0, gathered = 0.0, neighbour = 0.0;
     double t_search = 0.0, t_resolve = 0.0, t_step = 0.0;
     double t_search_steps = 0.0;    // of t_search, the steps' own (not the setup's)
+    double t_prepare = 0.0;         // the steps' ghost update, search and overlap check
+    double t_windows = 0.0;         // the steps' windows with the step check after them
+    // ... of which after the windows: the atoms' step ends, the tallies' reduction, and the
+    // step check's ghost update, search and reduction
+    double t_ends = 0.0, t_tallies = 0.0, t_check_ghosts = 0.0, t_check_search = 0.0;
+    double t_check_reduce = 0.0;
     double t_first = 0.0;       // seconds of the run's first step (allocations, page-locking)
     bigint resident = 0;        // steps carried out on the device
     double t_transfer = 0.0;    // seconds copying bodies to the device and back

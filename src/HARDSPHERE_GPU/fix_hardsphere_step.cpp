@@ -1147,7 +1147,10 @@ bool FixHardSphere::step_exact(const double *figures)
     reach = std::max(reach, cap);
   }
   if (glob[1] == 0.0) return true;
+  double tq = MPI_Wtime();
   if (comm->nprocs > 1) exchange->to_foreign(bexc, 1, fexc);
+  run_sum.t_check_ghosts += MPI_Wtime() - tq;
+  tq = MPI_Wtime();
 
   const int periodic[3] = {domain->xperiodic, domain->yperiodic, domain->zperiodic};
   const double *prd = domain->prd;
@@ -1174,8 +1177,11 @@ bool FixHardSphere::step_exact(const double *figures)
       missed = 1;
     }
   }
+  run_sum.t_check_search += MPI_Wtime() - tq;
+  tq = MPI_Wtime();
   int any = 0;
   allreduce(&missed, &any, 1, MPI_INT, MPI_MAX);
+  run_sum.t_check_reduce += MPI_Wtime() - tq;
   return any == 0;
 }
 
@@ -1233,11 +1239,15 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
       error->one(FLERR, "Fix hardsphere: internal error: a result of a group that spans ranks, "
                         "resolved on another rank, did not arrive");
     double xe[3], ve[3];
+    double tq = MPI_Wtime();
     for (Body &b : bodies) HSGPU::Collide::end_of_step(b, dt, xe, ve);
     // One reduction: the tallies, the event cap and step_exact()'s figures.
     double figures[2];
     exact_figures(figures);
+    run_sum.t_ends += MPI_Wtime() - tq;
+    tq = MPI_Wtime();
     sum_tallies(mine, mine.capped, all, figures);
+    run_sum.t_tallies += MPI_Wtime() - tq;
     n_repair += (double) stats.repairs;
     const bool exact = all.capped || step_exact(figures);
     t_resolve += MPI_Wtime() - t0;
@@ -1471,11 +1481,15 @@ void FixHardSphere::post_integrate()
   const int on_device = step_resident(mine, all);
   if (!on_device) {
     sboost.assign(atom->nlocal, 0.0);
+    const double t_p = MPI_Wtime();
     prepare(dt);
+    const double t_w = MPI_Wtime();
+    run_sum.t_prepare += t_w - t_p;
     if (serial_order)
       step_serial(mine, all);
     else
       step_windows(mine, all);
+    run_sum.t_windows += MPI_Wtime() - t_w;
   }
   if (all.capped) {
     const std::string msg = fmt::format(
@@ -1593,11 +1607,13 @@ void FixHardSphere::post_run()
   // Tuning aid: HSGPU_RANK_PARTS=1, each rank's time on a line of its own, ms per step over
   // the run: the fix's step, its communication (waits for the other ranks included) and the
   // rest, its own work; and the parts above (the groups spanning ranks with their waits; of
-  // them the rank's packing, unpacking and resolving), the rest of the step ("other": the step
-  // budget, the overlap check, the results written back, the reductions), atoms and ghosts.
+  // them the rank's packing, unpacking and resolving), the rest of the step ("other"), split
+  // into the step's ghost update with the overlap check, the step check after the windows with
+  // the driver's reductions around them, and the rest (the step budget, the results written
+  // back), and its atoms and ghosts.
   // The rank with the least communication is the one the others wait for.
   if (comm->nprocs > 1 && std::getenv("HSGPU_RANK_PARTS")) {
-    constexpr int NR = 10;
+    constexpr int NR = 19;
     const double own[NR] = {r.t_step,
                             r.t_comm,
                             r.t_search_steps,
@@ -1607,7 +1623,16 @@ void FixHardSphere::post_run()
                             dtm.spanning,
                             dtm.span_pack + dtm.gather_unpack + dtm.span_resolve,
                             (double) atom->nlocal,
-                            (double) atom->nghost};
+                            (double) atom->nghost,
+                            r.t_prepare,
+                            r.t_windows,
+                            dtm.before,
+                            dtm.after,
+                            r.t_ends,
+                            r.t_tallies,
+                            r.t_check_ghosts,
+                            r.t_check_search,
+                            r.t_check_reduce};
     std::vector<double> every(comm->me == 0 ? (size_t) NR * comm->nprocs : 0);
     MPI_Gather(own, NR, MPI_DOUBLE, every.data(), NR, MPI_DOUBLE, 0, world);
     if (comm->me == 0)
@@ -1618,9 +1643,19 @@ void FixHardSphere::post_run()
                        "Fix hardsphere: rank {}, ms per step: step {:.4g}, communication {:.4g}, "
                        "own work {:.4g}; search {:.4g}, window lengths {:.4g}, groups {:.4g}, "
                        "local {:.4g}, spanning {:.4g} (packing, unpacking and resolving {:.4g}), "
-                       "other {:.4g}; {:.0f} atoms, {:.0f} ghosts\n",
+                       "other {:.4g} (the ghost update and overlap check {:.4g}, the step check "
+                       "and the windows' reductions {:.4g}, the rest {:.4g}); {:.0f} atoms, "
+                       "{:.0f} ghosts\n",
                        q, ms(0), ms(1), ms(0) - ms(1), ms(2), ms(3), ms(4), ms(5), ms(6), ms(7),
-                       ms(0) - ms(2) - ms(3) - ms(4) - ms(5) - ms(6), e[8], e[9]);
+                       ms(0) - ms(2) - ms(3) - ms(4) - ms(5) - ms(6), ms(10) - ms(2),
+                       ms(11) - ms(3) - ms(4) - ms(5) - ms(6), ms(0) - ms(10) - ms(11), e[8],
+                       e[9]);
+        utils::logmesg(lmp,
+                       "Fix hardsphere: rank {}, the step check and the windows' reductions: "
+                       "before the windows {:.4g}, after them {:.4g}, the atoms' step ends "
+                       "{:.4g}, the tallies' reduction {:.4g}, the check's ghost update {:.4g}, "
+                       "search {:.4g}, reduction {:.4g}\n",
+                       q, ms(12), ms(13), ms(14), ms(15), ms(16), ms(17), ms(18));
       }
   }
   if (comm->me != 0) return;

@@ -1210,35 +1210,70 @@ TEST(FixHardSphereMPI, EachRanksPartsOnALineOfItsOwn)
   }
   if (me == 0) {
     const std::string text = hsgpu_test::file_text(log);
-    std::vector<int> seen(np, 0);
+    std::vector<int> seen(np, 0), seen_check(np, 0);
+    std::vector<double> check_of(np, -1.0), step_of(np, -1.0);
     const std::string head = "Fix hardsphere: rank ";
     for (size_t at = text.find(head); at != std::string::npos; at = text.find(head, at + 1)) {
       const std::string line = text.substr(at, text.find('\n', at) - at);
       int q = -1;
-      double step = -1, comm = -1, own = -1, search = -1, window = -1, groups = -1, local = -1,
-             span = -1, spanown = -1, other = -1, atoms = -1, ghosts = -1;
-      const int got = std::sscanf(
-          line.c_str(),
-          "Fix hardsphere: rank %d, ms per step: step %lf, communication %lf, own work %lf; "
-          "search %lf, window lengths %lf, groups %lf, local %lf, spanning %lf (packing, "
-          "unpacking and resolving %lf), other %lf; %lf atoms, %lf ghosts",
-          &q, &step, &comm, &own, &search, &window, &groups, &local, &span, &spanown, &other,
-          &atoms, &ghosts);
-      ASSERT_EQ(got, 13) << line;
-      ASSERT_GE(q, 0) << line;
-      ASSERT_LT(q, np) << line;
-      ++seen[q];
-      EXPECT_GT(step, 0.0) << line;
-      EXPECT_GT(comm, 0.0) << line;    // every rank takes part in the step's reductions
-      EXPECT_NEAR(own, step - comm, 1e-3 * step + 1e-3) << line;
-      for (double part : {search, window, groups, local, span, spanown}) EXPECT_GE(part, 0.0) << line;
-      EXPECT_GT(search, 0.0) << line;
-      EXPECT_LE(spanown, span + 1e-3) << line;
-      EXPECT_GE(other, -1e-3 * step) << line;    // the parts lie within the step
-      EXPECT_GT(atoms, 0.0) << line;
-      EXPECT_GT(ghosts, 0.0) << line;
+      if (line.find(", ms per step:") != std::string::npos) {
+        double step = -1, comm = -1, own = -1, search = -1, window = -1, groups = -1,
+               local = -1, span = -1, spanown = -1, other = -1, prep = -1, check = -1,
+               rest = -1, atoms = -1, ghosts = -1;
+        const int got = std::sscanf(
+            line.c_str(),
+            "Fix hardsphere: rank %d, ms per step: step %lf, communication %lf, own work %lf; "
+            "search %lf, window lengths %lf, groups %lf, local %lf, spanning %lf (packing, "
+            "unpacking and resolving %lf), other %lf (the ghost update and overlap check %lf, "
+            "the step check and the windows' reductions %lf, the rest %lf); %lf atoms, %lf "
+            "ghosts",
+            &q, &step, &comm, &own, &search, &window, &groups, &local, &span, &spanown, &other,
+            &prep, &check, &rest, &atoms, &ghosts);
+        ASSERT_EQ(got, 16) << line;
+        ASSERT_GE(q, 0) << line;
+        ASSERT_LT(q, np) << line;
+        ++seen[q];
+        check_of[q] = check;
+        step_of[q] = step;
+        EXPECT_GT(step, 0.0) << line;
+        EXPECT_GT(comm, 0.0) << line;    // every rank takes part in the step's reductions
+        EXPECT_NEAR(own, step - comm, 1e-3 * step + 1e-3) << line;
+        for (double part : {search, window, groups, local, span, spanown})
+          EXPECT_GE(part, 0.0) << line;
+        EXPECT_GT(search, 0.0) << line;
+        EXPECT_LE(spanown, span + 1e-3) << line;
+        // The parts lie within the step, and "other" is the sum of its three.
+        for (double part : {other, prep, check, rest}) EXPECT_GE(part, -1e-3 * step) << line;
+        EXPECT_NEAR(prep + check + rest, other, 1e-3 * step + 1e-3) << line;
+        EXPECT_GT(atoms, 0.0) << line;
+        EXPECT_GT(ghosts, 0.0) << line;
+      } else {
+        double before = -1, after = -1, ends = -1, tallies = -1, cghost = -1, csearch = -1,
+               creduce = -1;
+        const int got = std::sscanf(
+            line.c_str(),
+            "Fix hardsphere: rank %d, the step check and the windows' reductions: before the "
+            "windows %lf, after them %lf, the atoms' step ends %lf, the tallies' reduction %lf, "
+            "the check's ghost update %lf, search %lf, reduction %lf",
+            &q, &before, &after, &ends, &tallies, &cghost, &csearch, &creduce);
+        ASSERT_EQ(got, 8) << line;
+        ASSERT_GE(q, 0) << line;
+        ASSERT_LT(q, np) << line;
+        ASSERT_EQ(seen[q], 1) << "the rank's first line comes first: " << line;
+        ++seen_check[q];
+        for (double part : {before, after, ends, tallies, cghost, csearch, creduce})
+          EXPECT_GE(part, 0.0) << line;
+        EXPECT_GT(before, 0.0) << line;
+        EXPECT_GT(ends, 0.0) << line;
+        EXPECT_LE(before + after + ends + tallies + cghost + csearch + creduce,
+                  check_of[q] + 1e-3 * step_of[q] + 1e-3)
+            << "within the first line's step check and reductions: " << line;
+      }
     }
-    for (int q = 0; q < np; ++q) EXPECT_EQ(seen[q], 1) << "rank " << q << "'s line in " << log;
+    for (int q = 0; q < np; ++q) {
+      EXPECT_EQ(seen[q], 1) << "rank " << q << "'s line in " << log;
+      EXPECT_EQ(seen_check[q], 1) << "rank " << q << "'s second line in " << log;
+    }
     std::remove(log.c_str());
   }
   MPI_Barrier(MPI_COMM_WORLD);

@@ -1915,6 +1915,7 @@ namespace Collide {
                          Tally &mine, WindowStats &stats, double *body_virial,
                          const std::vector<Edge> *foreign_pairs)
   {
+    auto run_clock = std::chrono::steady_clock::now();
     tally_virial = body_virial != nullptr;
     body_virial_out = body_virial;
     spin = p.friction != 0;    // rough spheres: the exchanges carry the spins
@@ -2028,6 +2029,7 @@ namespace Collide {
     sparse_drop = s.sparse_drop;
     sf_ready = false;
     inc_ready = false;
+    times.before += lap(run_clock);
     run_windows(bodies, edges, fedges, foreign, p, s, backend, ex, mine, stats, nb, nv, use_view,
                 target);
     if (planned && planned_bad) {
@@ -2304,7 +2306,11 @@ namespace Collide {
     // whether some rank's went wrong, and their largest group over the target).
     if (planned && results_missing) planned_bad = true;    // the step again will tell
     double l[3] = {(double) largest_all, planned_bad ? 1.0 : 0.0, planned_ratio};
-    ex.max_sum(l, 3, acc, 5);
+    {
+      auto after_clock = std::chrono::steady_clock::now();
+      ex.max_sum(l, 3, acc, 5);
+      times.after += lap(after_clock);
+    }
     planned_bad = l[1] > 0.0;
     // (Where planning stops, the chooser's own windows, with their reductions, for the next
     // 64 steps, twice as many after each further such stop, at most 1024.)

@@ -245,6 +245,9 @@ namespace Collide {
     // ... and of the gather: its messages and reductions (waits included), and unpacking the
     // entries that came and finding their groups (the rest: choosing what goes where)
     double gather_messages = 0.0, gather_unpack = 0.0;
+    // The step's set-up before the windows (the fastest speed and its reduction, the bounds at
+    // the ranks' edges) and its reduction after them (waits included).
+    double before = 0.0, after = 0.0;
   };
 
   class WindowDriver {
