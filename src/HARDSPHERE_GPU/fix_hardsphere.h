@@ -474,6 +474,7 @@ class FixHardSphere : public Fix {
   void setup_backend();
   bool step_exact(const double *figures = nullptr);
   void exact_figures(double *loc);
+  void log_rank_parts();
   void view_completeness();
   void classify();
   void gather_boundary();

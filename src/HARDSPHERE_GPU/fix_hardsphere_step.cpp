@@ -1558,6 +1558,73 @@ void FixHardSphere::post_integrate()
   if (run_sum.steps == 1) run_sum.t_first = spent;
 }
 
+/* Tuning aid (HSGPU_RANK_PARTS=1, several ranks): each rank's time in ms per step over the run
+   on lines of its own, from rank 0: the fix's step, its communication (waits for the other ranks
+   included) and the rest, its own work; the parts of the run summary (the groups spanning ranks
+   with their waits, and of them the rank's packing, unpacking and resolving); the rest of the
+   step ("other"), split into the step's ghost update with the overlap check, the step check
+   after the windows with the step driver's reductions around them, and the rest (the step
+   budget, the results written back); its atoms and ghosts; and a second line taking the step
+   check and the driver's reductions apart.  The rank with the least communication is the one
+   the others wait for. */
+void FixHardSphere::log_rank_parts()
+{
+  const RunSummary &r = run_sum;
+  const HSGPU::Collide::DriverTimes &dtm = driver.times;
+  struct Parts {    // seconds over the run (atoms, ghosts: counts), gathered as doubles
+    double step, comm, search, edges, groups, local, spanning, spanning_own, atoms, ghosts;
+    double prepare, windows, before, after, ends, tallies, check_ghosts, check_search;
+    double check_reduce;
+  };
+  constexpr int NP = sizeof(Parts) / sizeof(double);
+  const Parts mine{r.t_step,
+                   r.t_comm,
+                   r.t_search_steps,
+                   dtm.edges,
+                   dtm.groups,
+                   dtm.local,
+                   dtm.spanning,
+                   dtm.span_pack + dtm.gather_unpack + dtm.span_resolve,
+                   (double) atom->nlocal,
+                   (double) atom->nghost,
+                   r.t_prepare,
+                   r.t_windows,
+                   dtm.before,
+                   dtm.after,
+                   r.t_ends,
+                   r.t_tallies,
+                   r.t_check_ghosts,
+                   r.t_check_search,
+                   r.t_check_reduce};
+  std::vector<Parts> every(comm->me == 0 ? comm->nprocs : 0);
+  MPI_Gather(&mine, NP, MPI_DOUBLE, every.data(), NP, MPI_DOUBLE, 0, world);
+  if (comm->me != 0) return;
+  const double per = 1e3 / (double) r.steps;    // seconds over the run -> ms per step
+  for (int q = 0; q < comm->nprocs; ++q) {
+    const Parts &e = every[q];
+    const double parts = e.edges + e.groups + e.local + e.spanning;
+    utils::logmesg(lmp,
+                   "Fix hardsphere: rank {}, ms per step: step {:.4g}, communication {:.4g}, "
+                   "own work {:.4g}; search {:.4g}, window lengths {:.4g}, groups {:.4g}, "
+                   "local {:.4g}, spanning {:.4g} (packing, unpacking and resolving {:.4g}), "
+                   "other {:.4g} (the ghost update and overlap check {:.4g}, the step check "
+                   "and the windows' reductions {:.4g}, the rest {:.4g}); {:.0f} atoms, "
+                   "{:.0f} ghosts\n",
+                   q, per * e.step, per * e.comm, per * (e.step - e.comm), per * e.search,
+                   per * e.edges, per * e.groups, per * e.local, per * e.spanning,
+                   per * e.spanning_own, per * (e.step - e.search - parts),
+                   per * (e.prepare - e.search), per * (e.windows - parts),
+                   per * (e.step - e.prepare - e.windows), e.atoms, e.ghosts);
+    utils::logmesg(lmp,
+                   "Fix hardsphere: rank {}, the step check and the windows' reductions: "
+                   "before the windows {:.4g}, after them {:.4g}, the atoms' step ends "
+                   "{:.4g}, the tallies' reduction {:.4g}, the check's ghost update {:.4g}, "
+                   "search {:.4g}, reduction {:.4g}\n",
+                   q, per * e.before, per * e.after, per * e.ends, per * e.tallies,
+                   per * e.check_ghosts, per * e.check_search, per * e.check_reduce);
+  }
+}
+
 /* One line per run in the log: what the resolution did, for a user asking why a run is slow. */
 void FixHardSphere::post_run()
 {
@@ -1604,59 +1671,12 @@ void FixHardSphere::post_run()
   // queue, its atoms gathered from the ranks every window (touching spheres, such as a settled
   // pile, are one group however short the window), so more ranks cannot make the run faster.
   const double natoms_fix = (comm->nprocs > 1) ? (double) group->count(igroup) : 0.0;
-  // Tuning aid: HSGPU_RANK_PARTS=1, each rank's time on a line of its own, ms per step over
-  // the run: the fix's step, its communication (waits for the other ranks included) and the
-  // rest, its own work; and the parts above (the groups spanning ranks with their waits; of
-  // them the rank's packing, unpacking and resolving), the rest of the step ("other"), split
-  // into the step's ghost update with the overlap check, the step check after the windows with
-  // the driver's reductions around them, and the rest (the step budget, the results written
-  // back), and its atoms and ghosts.
-  // The rank with the least communication is the one the others wait for.
-  if (comm->nprocs > 1 && std::getenv("HSGPU_RANK_PARTS")) {
-    constexpr int NR = 19;
-    const double own[NR] = {r.t_step,
-                            r.t_comm,
-                            r.t_search_steps,
-                            dtm.edges,
-                            dtm.groups,
-                            dtm.local,
-                            dtm.spanning,
-                            dtm.span_pack + dtm.gather_unpack + dtm.span_resolve,
-                            (double) atom->nlocal,
-                            (double) atom->nghost,
-                            r.t_prepare,
-                            r.t_windows,
-                            dtm.before,
-                            dtm.after,
-                            r.t_ends,
-                            r.t_tallies,
-                            r.t_check_ghosts,
-                            r.t_check_search,
-                            r.t_check_reduce};
-    std::vector<double> every(comm->me == 0 ? (size_t) NR * comm->nprocs : 0);
-    MPI_Gather(own, NR, MPI_DOUBLE, every.data(), NR, MPI_DOUBLE, 0, world);
-    if (comm->me == 0)
-      for (int q = 0; q < comm->nprocs; ++q) {
-        const double *e = &every[(size_t) NR * q];
-        auto ms = [&](int k) { return 1e3 * e[k] / n; };
-        utils::logmesg(lmp,
-                       "Fix hardsphere: rank {}, ms per step: step {:.4g}, communication {:.4g}, "
-                       "own work {:.4g}; search {:.4g}, window lengths {:.4g}, groups {:.4g}, "
-                       "local {:.4g}, spanning {:.4g} (packing, unpacking and resolving {:.4g}), "
-                       "other {:.4g} (the ghost update and overlap check {:.4g}, the step check "
-                       "and the windows' reductions {:.4g}, the rest {:.4g}); {:.0f} atoms, "
-                       "{:.0f} ghosts\n",
-                       q, ms(0), ms(1), ms(0) - ms(1), ms(2), ms(3), ms(4), ms(5), ms(6), ms(7),
-                       ms(0) - ms(2) - ms(3) - ms(4) - ms(5) - ms(6), ms(10) - ms(2),
-                       ms(11) - ms(3) - ms(4) - ms(5) - ms(6), ms(0) - ms(10) - ms(11), e[8],
-                       e[9]);
-        utils::logmesg(lmp,
-                       "Fix hardsphere: rank {}, the step check and the windows' reductions: "
-                       "before the windows {:.4g}, after them {:.4g}, the atoms' step ends "
-                       "{:.4g}, the tallies' reduction {:.4g}, the check's ghost update {:.4g}, "
-                       "search {:.4g}, reduction {:.4g}\n",
-                       q, ms(12), ms(13), ms(14), ms(15), ms(16), ms(17), ms(18));
-      }
+  if (comm->nprocs > 1) {
+    // (Every rank takes part where any has the variable: a rank launched without it waits
+    // for no gather that the others make.)
+    int want = std::getenv("HSGPU_RANK_PARTS") ? 1 : 0;
+    MPI_Allreduce(MPI_IN_PLACE, &want, 1, MPI_INT, MPI_MAX, world);
+    if (want) log_rank_parts();
   }
   if (comm->me != 0) return;
   auto part = [&](int k) {
