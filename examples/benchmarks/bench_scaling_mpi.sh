@@ -75,6 +75,8 @@ echo "host: $(nproc --all) logical CPUs, $(lscpu | sed -n 's/^Core(s) per socket
 echo
 
 median() { sort -g | awk '{v[NR] = $1} END {print (NR % 2) ? v[(NR + 1) / 2] : 0.5 * (v[NR / 2] + v[NR / 2 + 1])}'; }
+# The side of the cube of lattice sites nearest to $1 atoms (the fluid's nx).
+cube_side() { awk -v t="$1" 'BEGIN {printf "%d", t ^ (1 / 3) + 0.5}'; }
 
 # One run: prints "fixstep loop spanning gathers collectives ghostupdates bytes commleast
 # commmost spanningmost atomsmost atomsmean".
@@ -121,22 +123,24 @@ alone() {
     lattice3d|fluid) read -r -a a <<< "$(size_args "$c" 1)" ;;
     big_lattice3d) a=($((big / np)) -var N $((big / np)) -var steps "$strong_steps") ;;
     big_fluid) local nx
-      nx=$(awk -v t="$big" -v p="$np" 'BEGIN {printf "%d", (t / p) ^ (1 / 3) + 0.5}')
+      nx=$(cube_side $((big / np)))
       a=($((nx * nx * nx)) -var nx "$nx" -var steps "$strong_steps") ;;
     *) return ;;
   esac
   n=${a[0]}
   input=in.${c#big_}
   for ((i = 0; i < np; ++i)); do
-    (cd "$work" && taskset -c "$i" "$lmp" -in "$input" -var plugin "$plugin" "${a[@]:1}"       -log "alone.$i" -echo none -screen none > "alone.$i.out" 2>&1) &
+    (cd "$work" && taskset -c "$i" "$lmp" -in "$input" -var plugin "$plugin" "${a[@]:1}" \
+      -log "alone.$i" -echo none -screen none > "alone.$i.out" 2>&1) &
   done
   wait
+  local times=""
   for ((i = 0; i < np; ++i)); do
     k=$(sed -n 's/^Fix hardsphere (.*(\([0-9.e+-]*\) ms after the first).*/\1/p' "$work/alone.$i")
     [ -n "$k" ] || { echo "single run $i of $np failed: $input ${a[*]:1}" >&2; return; }
-    echo "$k"
-  done | sort -g | awk -v n="$n" '{v[NR] = $1} END {
-    printf "%d %g %g\n", n, (NR % 2) ? v[(NR + 1) / 2] : 0.5 * (v[NR / 2] + v[NR / 2 + 1]), v[NR]}'
+    times+="$k"$'\n'
+  done
+  echo "$n $(printf '%s' "$times" | median) $(printf '%s' "$times" | sort -g | tail -n 1)"
 }
 
 size_args() {    # case np -> prints "N args..."
@@ -144,14 +148,14 @@ size_args() {    # case np -> prints "N args..."
   case $c in
     lattice3d) echo "$total -var N $total -var steps 50" ;;
     fluid) local nx
-      nx=$(awk -v t="$total" 'BEGIN {printf "%d", t ^ (1 / 3) + 0.5}')
+      nx=$(cube_side "$total")
       echo "$((nx * nx * nx)) -var nx $nx -var steps 50" ;;
     pour) local n
       n=$(awk -v t="$total" 'BEGIN {printf "%d", sqrt(t / 16) + 0.5}')
       echo "$total -var N $total -var n $n -var steps $pour_steps" ;;
     big_lattice3d) echo "$big -var N $big -var steps $strong_steps" ;;
     big_fluid) local nx
-      nx=$(awk -v t="$big" 'BEGIN {printf "%d", t ^ (1 / 3) + 0.5}')
+      nx=$(cube_side "$big")
       echo "$((nx * nx * nx)) -var nx $nx -var steps $strong_steps" ;;
   esac
 }

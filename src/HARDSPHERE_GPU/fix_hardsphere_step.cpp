@@ -73,6 +73,15 @@ constexpr double PUSH_MARGIN = 1e-6;
 constexpr double PUSH_INSET = 1e-9;
 constexpr int NSTATE = 15;    // doubles per body in the boundary exchange (3 more with friction)
 
+// Seconds of MPI_Wtime() since t, and t moved to now (the run summary's parts).
+double lap(double &t)
+{
+  const double now = MPI_Wtime();
+  const double s = now - t;
+  t = now;
+  return s;
+}
+
 // Lexicographic order of overlap reports: lower atom ID first, walls (negative) first.
 bool before(double a1, double b1, double a2, double b2)
 {
@@ -1149,8 +1158,7 @@ bool FixHardSphere::step_exact(const double *figures)
   if (glob[1] == 0.0) return true;
   double tq = MPI_Wtime();
   if (comm->nprocs > 1) exchange->to_foreign(bexc, 1, fexc);
-  run_sum.t_check_ghosts += MPI_Wtime() - tq;
-  tq = MPI_Wtime();
+  run_sum.t_check_ghosts += lap(tq);
 
   const int periodic[3] = {domain->xperiodic, domain->yperiodic, domain->zperiodic};
   const double *prd = domain->prd;
@@ -1177,11 +1185,10 @@ bool FixHardSphere::step_exact(const double *figures)
       missed = 1;
     }
   }
-  run_sum.t_check_search += MPI_Wtime() - tq;
-  tq = MPI_Wtime();
+  run_sum.t_check_search += lap(tq);
   int any = 0;
   allreduce(&missed, &any, 1, MPI_INT, MPI_MAX);
-  run_sum.t_check_reduce += MPI_Wtime() - tq;
+  run_sum.t_check_reduce += lap(tq);
   return any == 0;
 }
 
@@ -1244,10 +1251,9 @@ void FixHardSphere::step_windows(Tally &mine, Tally &all)
     // One reduction: the tallies, the event cap and step_exact()'s figures.
     double figures[2];
     exact_figures(figures);
-    run_sum.t_ends += MPI_Wtime() - tq;
-    tq = MPI_Wtime();
+    run_sum.t_ends += lap(tq);
     sum_tallies(mine, mine.capped, all, figures);
-    run_sum.t_tallies += MPI_Wtime() - tq;
+    run_sum.t_tallies += lap(tq);
     n_repair += (double) stats.repairs;
     const bool exact = all.capped || step_exact(figures);
     t_resolve += MPI_Wtime() - t0;
@@ -1481,15 +1487,14 @@ void FixHardSphere::post_integrate()
   const int on_device = step_resident(mine, all);
   if (!on_device) {
     sboost.assign(atom->nlocal, 0.0);
-    const double t_p = MPI_Wtime();
+    double tp = MPI_Wtime();
     prepare(dt);
-    const double t_w = MPI_Wtime();
-    run_sum.t_prepare += t_w - t_p;
+    run_sum.t_prepare += lap(tp);
     if (serial_order)
       step_serial(mine, all);
     else
       step_windows(mine, all);
-    run_sum.t_windows += MPI_Wtime() - t_w;
+    run_sum.t_windows += lap(tp);
   }
   if (all.capped) {
     const std::string msg = fmt::format(

@@ -2307,9 +2307,8 @@ namespace Collide {
     if (planned && results_missing) planned_bad = true;    // the step again will tell
     double l[3] = {(double) largest_all, planned_bad ? 1.0 : 0.0, planned_ratio};
     {
-      auto after_clock = std::chrono::steady_clock::now();
+      ScopeTime st(times.after);
       ex.max_sum(l, 3, acc, 5);
-      times.after += lap(after_clock);
     }
     planned_bad = l[1] > 0.0;
     // (Where planning stops, the chooser's own windows, with their reductions, for the next
